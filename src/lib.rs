@@ -1,0 +1,15 @@
+//! vkrad: progressive-refinement radiosity on raw Vulkan.
+//!
+//! The pipeline is `scene` (load) -> `mesh` (elements) -> `solve` (progressive
+//! refinement, form factors from `formfactor` and passes in `gpu`) -> `output`.
+//! Pure CPU modules never touch the Vulkan layer; `unsafe` lives only in `gpu`.
+
+pub mod error;
+pub mod formfactor;
+pub mod gpu;
+pub mod mesh;
+pub mod output;
+pub mod scene;
+pub mod solve;
+
+pub use error::{Error, Result};
