@@ -9,6 +9,7 @@ pub mod formfactor;
 pub mod gpu;
 pub mod mesh;
 pub mod output;
+pub mod projection;
 pub mod scene;
 pub mod solve;
 

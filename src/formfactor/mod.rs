@@ -1,1 +1,3 @@
-//! formfactor
+//! Form factors: the GPU hemicube's CPU side, and the analytic reference.
+
+pub mod hemicube;

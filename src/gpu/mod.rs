@@ -1,1 +1,14 @@
-//! gpu
+//! The Vulkan layer (raw `ash` + `gpu-allocator`). All `unsafe` in vkrad
+//! lives here. It knows buffers, images, pipelines and passes, not scenes.
+
+pub mod commands;
+pub mod context;
+pub mod hemicube;
+pub mod memory;
+pub mod pipeline;
+pub mod profiler;
+pub mod raster;
+pub mod shaders;
+
+pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
+pub use profiler::StageTimes;

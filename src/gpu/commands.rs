@@ -1,0 +1,157 @@
+//! A command buffer with its pool and fence: record, submit, wait.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::context::Device;
+use crate::error::{Error, Result};
+
+/// One primary command buffer. It may be recorded once and submitted many
+/// times (the shooting loop does), or re-recorded between submissions.
+pub struct Commands {
+    device: Arc<Device>,
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl Commands {
+    pub fn new(device: &Arc<Device>, name: &str) -> Result<Self> {
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(device.queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid device.
+        let pool = unsafe { device.raw.create_command_pool(&pool_info, None) }
+            .map_err(Error::vk("vkCreateCommandPool"))?;
+        let mut this = Commands {
+            device: device.clone(),
+            pool,
+            cmd: vk::CommandBuffer::null(),
+            fence: vk::Fence::null(),
+        };
+        let alloc_info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: pool belongs to this device.
+        this.cmd = unsafe { device.raw.allocate_command_buffers(&alloc_info) }
+            .map_err(Error::vk("vkAllocateCommandBuffers"))?[0];
+        // SAFETY: valid device.
+        this.fence = unsafe {
+            device
+                .raw
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        }
+        .map_err(Error::vk("vkCreateFence"))?;
+        device.set_name(this.cmd, name);
+        device.set_name(this.fence, &format!("{name} fence"));
+        Ok(this)
+    }
+
+    /// Starts recording (discarding what was recorded before).
+    pub fn begin(&self) -> Result<vk::CommandBuffer> {
+        // SAFETY: the buffer is not pending: every submit waits on the fence.
+        unsafe {
+            self.device
+                .raw
+                .reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
+                .map_err(Error::vk("vkResetCommandBuffer"))?;
+            self.device
+                .raw
+                .begin_command_buffer(self.cmd, &vk::CommandBufferBeginInfo::default())
+                .map_err(Error::vk("vkBeginCommandBuffer"))?;
+        }
+        Ok(self.cmd)
+    }
+
+    pub fn end(&self) -> Result<()> {
+        // SAFETY: recording was begun by `begin`.
+        unsafe { self.device.raw.end_command_buffer(self.cmd) }
+            .map_err(Error::vk("vkEndCommandBuffer"))
+    }
+
+    /// Submits the recorded commands and waits for them to finish. Host
+    /// writes made before this call are visible to the commands (submission
+    /// is a host-write ordering point).
+    pub fn submit_and_wait(&self) -> Result<()> {
+        let cmds = [self.cmd];
+        let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+        // SAFETY: the buffer is fully recorded and not pending; the fence is
+        // unsignalled (reset after every wait).
+        unsafe {
+            self.device
+                .raw
+                .queue_submit(self.device.queue, &submit, self.fence)
+                .map_err(Error::vk("vkQueueSubmit"))?;
+            self.device
+                .raw
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+                .map_err(Error::vk("vkWaitForFences"))?;
+            self.device
+                .raw
+                .reset_fences(&[self.fence])
+                .map_err(Error::vk("vkResetFences"))?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Commands {
+    fn drop(&mut self) {
+        // SAFETY: submissions are always waited for, so nothing is pending.
+        unsafe {
+            self.device.raw.destroy_fence(self.fence, None);
+            self.device.raw.destroy_command_pool(self.pool, None);
+        }
+    }
+}
+
+/// Shorthand for one synchronization2 buffer barrier over a whole buffer.
+pub fn buffer_barrier(
+    buffer: vk::Buffer,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) -> vk::BufferMemoryBarrier2<'static> {
+    vk::BufferMemoryBarrier2::default()
+        .buffer(buffer)
+        .offset(0)
+        .size(vk::WHOLE_SIZE)
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1)
+}
+
+/// Shorthand for one synchronization2 image barrier with a layout change.
+pub fn image_barrier(
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+    layouts: (vk::ImageLayout, vk::ImageLayout),
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .image(image)
+        .subresource_range(super::memory::subresource_range(aspect))
+        .old_layout(layouts.0)
+        .new_layout(layouts.1)
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1)
+}
+
+/// Records the given barriers in one `vkCmdPipelineBarrier2`.
+pub fn barriers(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    buffers: &[vk::BufferMemoryBarrier2],
+    images: &[vk::ImageMemoryBarrier2],
+) {
+    let info = vk::DependencyInfo::default()
+        .buffer_memory_barriers(buffers)
+        .image_memory_barriers(images);
+    // SAFETY: cmd is recording; barriers reference live resources.
+    unsafe { device.raw.cmd_pipeline_barrier2(cmd, &info) };
+}

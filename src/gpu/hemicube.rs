@@ -1,0 +1,716 @@
+//! The hemicube passes: item buffer (5 faces into one atlas), form-factor
+//! reduction (compute, integer atomics) and shooting (compute), all on the
+//! GPU; the CPU only picks the shooter and reads unshot radiosity back.
+//!
+//! Both command buffers are recorded once; a shot only rewrites the small
+//! parameter block and resubmits.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::context::Device;
+use super::memory::{Buffer, Image};
+use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
+use super::profiler::{GpuProfiler, StageTimes};
+use super::shaders;
+use crate::error::{Error, Result};
+
+/// One vertex of the item-buffer geometry: position and the element it belongs to.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ItemVertex {
+    pub position: [f32; 3],
+    pub element: u32,
+}
+
+/// Per-shot parameters (std140, mirrors glsl/shot_params.glsl).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ShotParams {
+    pub face_view_proj: [[f32; 16]; 5],
+    /// rgb: the shooter's unshot radiosity; w: its area.
+    pub shooter_unshot: [f32; 4],
+    pub shooter: u32,
+    pub element_count: u32,
+    pub _pad: [u32; 2],
+}
+
+/// What the engine needs to know of the scene, as plain arrays.
+pub struct HemicubeInputs<'a> {
+    /// Three vertices per triangle, each tagged with its element.
+    pub triangles: &'a [ItemVertex],
+    /// Per element: rgb reflectance, w area.
+    pub reflectance_area: &'a [[f32; 4]],
+    /// Per element: initial radiosity = unshot radiosity (rgb, w unused).
+    pub initial_radiosity: &'a [[f32; 4]],
+    /// Fixed-point delta form factor per atlas pixel, row-major.
+    pub weights: &'a [u32],
+    /// Atlas (width, height).
+    pub atlas: (u32, u32),
+    /// Viewport (x, y, w, h) of each face in the atlas.
+    pub face_viewports: [(u32, u32, u32, u32); 5],
+}
+
+const ITEM_FORMAT: vk::Format = vk::Format::R32_UINT;
+const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+const NO_ELEMENT: u32 = u32::MAX;
+
+// Descriptor bindings (glsl/shot_params.glsl, ff_reduce.comp, shoot.comp).
+const B_PARAMS: u32 = 0;
+const B_ITEM: u32 = 1;
+const B_WEIGHTS: u32 = 2;
+const B_FF: u32 = 3;
+const B_ELEMENTS: u32 = 4;
+const B_RADIOSITY: u32 = 5;
+const B_UNSHOT: u32 = 6;
+
+pub struct HemicubeEngine {
+    device: Arc<Device>,
+    element_count: u32,
+    triangle_vertices: u32,
+    atlas: (u32, u32),
+    face_viewports: [(u32, u32, u32, u32); 5],
+    params: Buffer,
+    readback: Buffer,
+    radiosity: Buffer,
+    unshot: Buffer,
+    ff: Buffer,
+    // Kept alive for the recorded command buffers.
+    _vertices: Buffer,
+    _weights: Buffer,
+    _elements: Buffer,
+    item: Image,
+    depth: Image,
+    bindings: Bindings,
+    item_pipeline: Pipeline,
+    reduce_pipeline: Pipeline,
+    shoot_pipeline: Pipeline,
+    shoot_cmds: Commands,
+    ff_cmds: Commands,
+    readback_cmds: Commands,
+    shoot_profiler: Option<GpuProfiler>,
+    ff_profiler: Option<GpuProfiler>,
+    /// Time per stage, accumulated over all submissions.
+    pub times: StageTimes,
+}
+
+impl HemicubeEngine {
+    pub fn new(device: &Arc<Device>, inputs: &HemicubeInputs) -> Result<Self> {
+        let n = inputs.reflectance_area.len();
+        if n == 0 || inputs.triangles.is_empty() {
+            return Err(Error::Invalid("the mesh has no elements".into()));
+        }
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let dst = vk::BufferUsageFlags::TRANSFER_DST;
+        let src = vk::BufferUsageFlags::TRANSFER_SRC;
+        let vertices = upload(
+            device,
+            "item-buffer vertices",
+            inputs.triangles,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        let weights = upload(
+            device,
+            "hemicube delta form factors",
+            inputs.weights,
+            storage,
+        )?;
+        let elements = upload(
+            device,
+            "element reflectance and area",
+            inputs.reflectance_area,
+            storage,
+        )?;
+        let radiosity = upload(
+            device,
+            "element radiosity",
+            inputs.initial_radiosity,
+            storage | src,
+        )?;
+        let unshot = upload(
+            device,
+            "element unshot radiosity",
+            inputs.initial_radiosity,
+            storage | src,
+        )?;
+        let ff = Buffer::new(
+            device,
+            "element form factors (fixed point)",
+            4 * n as u64,
+            storage | dst | src,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            device,
+            "element readback",
+            16 * n as u64,
+            dst,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let params = Buffer::new(
+            device,
+            "shot parameters",
+            std::mem::size_of::<ShotParams>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+        let extent = vk::Extent2D {
+            width: inputs.atlas.0,
+            height: inputs.atlas.1,
+        };
+        let item = Image::new(
+            device,
+            "hemicube item buffer",
+            ITEM_FORMAT,
+            extent,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
+            vk::ImageAspectFlags::COLOR,
+        )?;
+        let depth = Image::new(
+            device,
+            "hemicube depth",
+            DEPTH_FORMAT,
+            extent,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            vk::ImageAspectFlags::DEPTH,
+        )?;
+
+        let sb = vk::DescriptorType::STORAGE_BUFFER;
+        let bindings = Bindings::new(
+            device,
+            "hemicube bindings",
+            &[
+                (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER),
+                (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
+                (B_WEIGHTS, sb),
+                (B_FF, sb),
+                (B_ELEMENTS, sb),
+                (B_RADIOSITY, sb),
+                (B_UNSHOT, sb),
+            ],
+            4,
+        )?;
+        bindings.bind_buffer(B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER, params.raw());
+        bindings.bind_storage_image(B_ITEM, item.view());
+        bindings.bind_buffer(B_WEIGHTS, sb, weights.raw());
+        bindings.bind_buffer(B_FF, sb, ff.raw());
+        bindings.bind_buffer(B_ELEMENTS, sb, elements.raw());
+        bindings.bind_buffer(B_RADIOSITY, sb, radiosity.raw());
+        bindings.bind_buffer(B_UNSHOT, sb, unshot.raw());
+
+        let item_pipeline = Pipeline::graphics(
+            device,
+            "hemicube item buffer",
+            bindings.layout,
+            &GraphicsDesc {
+                vertex: shaders::HEMICUBE_VERT,
+                fragment: shaders::HEMICUBE_FRAG,
+                vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
+                attributes: &[
+                    (0, vk::Format::R32G32B32_SFLOAT, 0),
+                    (1, vk::Format::R32_UINT, 12),
+                ],
+                color_format: ITEM_FORMAT,
+                depth_format: DEPTH_FORMAT,
+                depth_compare: vk::CompareOp::GREATER,
+            },
+        )?;
+        let reduce_pipeline = Pipeline::compute(
+            device,
+            "form-factor reduction",
+            bindings.layout,
+            shaders::FF_REDUCE_COMP,
+        )?;
+        let shoot_pipeline =
+            Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
+
+        let mut engine = HemicubeEngine {
+            device: device.clone(),
+            element_count: n as u32,
+            triangle_vertices: inputs.triangles.len() as u32,
+            atlas: inputs.atlas,
+            face_viewports: inputs.face_viewports,
+            params,
+            readback,
+            radiosity,
+            unshot,
+            ff,
+            _vertices: vertices,
+            _weights: weights,
+            _elements: elements,
+            item,
+            depth,
+            bindings,
+            item_pipeline,
+            reduce_pipeline,
+            shoot_pipeline,
+            shoot_cmds: Commands::new(device, "shoot commands")?,
+            ff_cmds: Commands::new(device, "form-factor commands")?,
+            readback_cmds: Commands::new(device, "readback commands")?,
+            shoot_profiler: GpuProfiler::new(device, "shoot timestamps", 8)?,
+            ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
+            times: StageTimes::default(),
+        };
+        engine.record_shoot()?;
+        engine.record_form_factors()?;
+        Ok(engine)
+    }
+
+    pub fn element_count(&self) -> usize {
+        self.element_count as usize
+    }
+
+    /// Item buffer and reduction: leaves F(shooter -> every element) in `ff`.
+    fn record_hemicube(&self, cmd: vk::CommandBuffer, profiler: &mut Option<GpuProfiler>) {
+        let d = &self.device;
+        let raw = &d.raw;
+        if let Some(p) = profiler.as_mut() {
+            p.begin(cmd);
+        }
+        barriers(
+            d,
+            cmd,
+            // Previous submission's shooting/readback read of ff -> this clear.
+            // (ALL_TRANSFER: layers differ on whether a fill is CLEAR or COPY.)
+            &[buffer_barrier(
+                self.ff.raw(),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::empty(),
+                ),
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+            )],
+            &[
+                // Previous reduction read of the item buffer -> this render's write.
+                image_barrier(
+                    self.item.raw(),
+                    vk::ImageAspectFlags::COLOR,
+                    (
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::empty(),
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                    ),
+                ),
+                // Previous render's depth writes -> this render's clear and test.
+                image_barrier(
+                    self.depth.raw(),
+                    vk::ImageAspectFlags::DEPTH,
+                    (
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                ),
+            ],
+        );
+        let (w, h) = self.atlas;
+        // SAFETY: cmd is recording; every handle is owned by self and outlives it.
+        unsafe {
+            raw.cmd_fill_buffer(cmd, self.ff.raw(), 0, vk::WHOLE_SIZE, 0);
+            let color = [vk::RenderingAttachmentInfo::default()
+                .image_view(self.item.view())
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        uint32: [NO_ELEMENT; 4],
+                    },
+                })];
+            let depth = vk::RenderingAttachmentInfo::default()
+                .image_view(self.depth.view())
+                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                // Reverse-Z: 0 is infinitely far.
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: 0.0,
+                        stencil: 0,
+                    },
+                });
+            let rendering = vk::RenderingInfo::default()
+                .render_area(vk::Rect2D {
+                    offset: vk::Offset2D::default(),
+                    extent: vk::Extent2D {
+                        width: w,
+                        height: h,
+                    },
+                })
+                .layer_count(1)
+                .color_attachments(&color)
+                .depth_attachment(&depth);
+            raw.cmd_begin_rendering(cmd, &rendering);
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.bindings.layout,
+                0,
+                &[self.bindings.set],
+                &[],
+            );
+            raw.cmd_bind_vertex_buffers(cmd, 0, &[self._vertices.raw()], &[0]);
+            for (face, &(x, y, fw, fh)) in self.face_viewports.iter().enumerate() {
+                raw.cmd_set_viewport(
+                    cmd,
+                    0,
+                    &[vk::Viewport {
+                        x: x as f32,
+                        y: y as f32,
+                        width: fw as f32,
+                        height: fh as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                raw.cmd_set_scissor(
+                    cmd,
+                    0,
+                    &[vk::Rect2D {
+                        offset: vk::Offset2D {
+                            x: x as i32,
+                            y: y as i32,
+                        },
+                        extent: vk::Extent2D {
+                            width: fw,
+                            height: fh,
+                        },
+                    }],
+                );
+                raw.cmd_push_constants(
+                    cmd,
+                    self.bindings.layout,
+                    vk::ShaderStageFlags::ALL,
+                    0,
+                    &(face as u32).to_ne_bytes(),
+                );
+                raw.cmd_draw(cmd, self.triangle_vertices, 1, 0, 0);
+            }
+            raw.cmd_end_rendering(cmd);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "hemicube render");
+        }
+        barriers(
+            d,
+            cmd,
+            // Clear of ff -> reduction atomics.
+            &[buffer_barrier(
+                self.ff.raw(),
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            )],
+            // Item-buffer write -> reduction read.
+            &[image_barrier(
+                self.item.raw(),
+                vk::ImageAspectFlags::COLOR,
+                (
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::GENERAL,
+                ),
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ,
+                ),
+            )],
+        );
+        // SAFETY: as above.
+        unsafe {
+            raw.cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.reduce_pipeline.raw,
+            );
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.bindings.layout,
+                0,
+                &[self.bindings.set],
+                &[],
+            );
+            raw.cmd_dispatch(cmd, w.div_ceil(16), h.div_ceil(16), 1);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "form-factor reduction");
+        }
+    }
+
+    fn record_shoot(&mut self) -> Result<()> {
+        let cmd = self.shoot_cmds.begin()?;
+        let mut profiler = self.shoot_profiler.take();
+        self.record_hemicube(cmd, &mut profiler);
+        let d = &self.device;
+        let compute_rw =
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        barriers(
+            d,
+            cmd,
+            &[
+                // Reduction atomics -> shooting read of ff.
+                buffer_barrier(
+                    self.ff.raw(),
+                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_READ,
+                    ),
+                ),
+                // Previous readback copy of unshot -> this shot's update (WAR).
+                buffer_barrier(
+                    self.unshot.raw(),
+                    (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
+                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                ),
+                // Previous final-radiosity copy -> this shot's update (WAR).
+                buffer_barrier(
+                    self.radiosity.raw(),
+                    (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
+                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                ),
+            ],
+            &[],
+        );
+        // SAFETY: cmd is recording; handles owned by self.
+        unsafe {
+            d.raw
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.shoot_pipeline.raw);
+            d.raw
+                .cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "shooting");
+        }
+        self.record_copy_to_host(cmd, self.unshot.raw(), 16);
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "readback");
+        }
+        self.shoot_profiler = profiler;
+        self.shoot_cmds.end()
+    }
+
+    fn record_form_factors(&mut self) -> Result<()> {
+        let cmd = self.ff_cmds.begin()?;
+        let mut profiler = self.ff_profiler.take();
+        self.record_hemicube(cmd, &mut profiler);
+        self.record_copy_to_host(cmd, self.ff.raw(), 4);
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "readback");
+        }
+        self.ff_profiler = profiler;
+        self.ff_cmds.end()
+    }
+
+    /// Copies `stride` bytes per element of `buffer` into the readback buffer.
+    fn record_copy_to_host(&self, cmd: vk::CommandBuffer, buffer: vk::Buffer, stride: u64) {
+        let d = &self.device;
+        barriers(
+            d,
+            cmd,
+            // Compute writes of `buffer` -> copy read.
+            &[buffer_barrier(
+                buffer,
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_READ,
+                ),
+            )],
+            &[],
+        );
+        let region = [vk::BufferCopy {
+            src_offset: 0,
+            dst_offset: 0,
+            size: stride * self.element_count as u64,
+        }];
+        // SAFETY: both buffers are large enough for `region`.
+        unsafe {
+            d.raw
+                .cmd_copy_buffer(cmd, buffer, self.readback.raw(), &region)
+        };
+        barriers(
+            d,
+            cmd,
+            // Readback copy -> host read after the fence.
+            &[buffer_barrier(
+                self.readback.raw(),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            )],
+            &[],
+        );
+    }
+
+    fn write_params(
+        &mut self,
+        face_view_proj: &[glam::Mat4; 5],
+        shooter: u32,
+        shooter_unshot: [f32; 4],
+    ) -> Result<()> {
+        let params = ShotParams {
+            face_view_proj: face_view_proj.map(|m| m.to_cols_array()),
+            shooter_unshot,
+            shooter,
+            element_count: self.element_count,
+            _pad: [0; 2],
+        };
+        self.params.write(0, &[params])
+    }
+
+    /// One progressive-refinement shot from element `shooter` whose unshot
+    /// radiosity is `unshot_rgb` and area `area`. Returns every element's
+    /// unshot radiosity after the shot (rgba, a unused).
+    pub fn shoot(
+        &mut self,
+        face_view_proj: &[glam::Mat4; 5],
+        shooter: u32,
+        unshot_rgb: [f32; 3],
+        area: f32,
+    ) -> Result<Vec<[f32; 4]>> {
+        let [r, g, b] = unshot_rgb;
+        self.write_params(face_view_proj, shooter, [r, g, b, area])?;
+        self.shoot_cmds.submit_and_wait()?;
+        if let Some(p) = &self.shoot_profiler {
+            p.collect(&mut self.times)?;
+        }
+        self.readback.read(self.element_count as usize)
+    }
+
+    /// Form factors F(point -> element) from a hemicube at the given frame,
+    /// for every element (no shooting).
+    pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
+        self.write_params(face_view_proj, u32::MAX, [0.0; 4])?;
+        self.ff_cmds.submit_and_wait()?;
+        if let Some(p) = &self.ff_profiler {
+            p.collect(&mut self.times)?;
+        }
+        let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
+        Ok(fixed
+            .into_iter()
+            .map(|f| f as f64 / crate::formfactor::hemicube::FF_FIXED_ONE)
+            .collect())
+    }
+
+    /// Every element's radiosity (rgba, a unused).
+    pub fn radiosity(&mut self) -> Result<Vec<[f32; 4]>> {
+        let cmd = self.readback_cmds.begin()?;
+        barriers(
+            &self.device,
+            cmd,
+            // Shooting writes of radiosity -> copy read.
+            &[buffer_barrier(
+                self.radiosity.raw(),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_READ,
+                ),
+            )],
+            &[],
+        );
+        self.record_copy_to_host(cmd, self.radiosity.raw(), 16);
+        self.readback_cmds.end()?;
+        self.readback_cmds.submit_and_wait()?;
+        self.readback.read(self.element_count as usize)
+    }
+}
+
+/// Creates a device-local buffer holding `data` (through a staging buffer).
+pub fn upload<T: bytemuck::Pod>(
+    device: &Arc<Device>,
+    name: &str,
+    data: &[T],
+    usage: vk::BufferUsageFlags,
+) -> Result<Buffer> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    let staging = Buffer::with_data(
+        device,
+        &format!("{name} (staging)"),
+        data,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+    )?;
+    let buffer = Buffer::new(
+        device,
+        name,
+        bytes,
+        usage | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    let cmds = Commands::new(device, &format!("upload {name}"))?;
+    let cmd = cmds.begin()?;
+    // SAFETY: both buffers hold at least `bytes`.
+    unsafe {
+        device.raw.cmd_copy_buffer(
+            cmd,
+            staging.raw(),
+            buffer.raw(),
+            &[vk::BufferCopy {
+                src_offset: 0,
+                dst_offset: 0,
+                size: bytes.max(4).min(buffer.size()),
+            }],
+        )
+    };
+    // Upload copy -> every later use (vertex input, shaders, copies).
+    barriers(
+        device,
+        cmd,
+        &[buffer_barrier(
+            buffer.raw(),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
+            ),
+        )],
+        &[],
+    );
+    cmds.end()?;
+    cmds.submit_and_wait()?;
+    Ok(buffer)
+}

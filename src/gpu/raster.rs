@@ -1,0 +1,260 @@
+//! The final image: the lit mesh rasterized with per-vertex radiance.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::context::Device;
+use super::hemicube::upload;
+use super::memory::{Buffer, Image};
+use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
+use super::profiler::{GpuProfiler, StageTimes};
+use super::shaders;
+use crate::error::Result;
+
+/// A vertex of the lit mesh: position and linear radiance L = B / pi.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct LitVertex {
+    pub position: [f32; 3],
+    pub radiance: [f32; 3],
+}
+
+const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+/// Renders `triangles` (three vertices each) with `view_proj` into a
+/// `width` x `height` linear-radiance image (rgba, top row first).
+pub fn render_lit_mesh(
+    device: &Arc<Device>,
+    triangles: &[LitVertex],
+    view_proj: glam::Mat4,
+    width: u32,
+    height: u32,
+    times: &mut StageTimes,
+) -> Result<Vec<[f32; 4]>> {
+    let extent = vk::Extent2D { width, height };
+    let color = Image::new(
+        device,
+        "final image",
+        COLOR_FORMAT,
+        extent,
+        vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+        vk::ImageAspectFlags::COLOR,
+    )?;
+    let depth = Image::new(
+        device,
+        "final depth",
+        DEPTH_FORMAT,
+        extent,
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::ImageAspectFlags::DEPTH,
+    )?;
+    let pixels = width as u64 * height as u64;
+    let readback = Buffer::new(
+        device,
+        "final image readback",
+        16 * pixels,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuToCpu,
+    )?;
+    let vertices = upload(
+        device,
+        "lit mesh vertices",
+        triangles,
+        vk::BufferUsageFlags::VERTEX_BUFFER,
+    )?;
+    let bindings = Bindings::new(device, "final render bindings", &[], 64)?;
+    let pipeline = Pipeline::graphics(
+        device,
+        "final render",
+        bindings.layout,
+        &GraphicsDesc {
+            vertex: shaders::RENDER_VERT,
+            fragment: shaders::RENDER_FRAG,
+            vertex_stride: std::mem::size_of::<LitVertex>() as u32,
+            attributes: &[
+                (0, vk::Format::R32G32B32_SFLOAT, 0),
+                (1, vk::Format::R32G32B32_SFLOAT, 12),
+            ],
+            color_format: COLOR_FORMAT,
+            depth_format: DEPTH_FORMAT,
+            depth_compare: vk::CompareOp::GREATER,
+        },
+    )?;
+    let cmds = Commands::new(device, "final render commands")?;
+    let mut profiler = GpuProfiler::new(device, "final render timestamps", 4)?;
+    let cmd = cmds.begin()?;
+    if let Some(p) = profiler.as_mut() {
+        p.begin(cmd);
+    }
+    let none = (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE);
+    barriers(
+        device,
+        cmd,
+        &[],
+        &[
+            // Fresh image -> color attachment write.
+            image_barrier(
+                color.raw(),
+                vk::ImageAspectFlags::COLOR,
+                (
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                ),
+                none,
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+            ),
+            // Fresh depth -> depth clear and test.
+            image_barrier(
+                depth.raw(),
+                vk::ImageAspectFlags::DEPTH,
+                (
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+                ),
+                none,
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                ),
+            ),
+        ],
+    );
+    let raw = &device.raw;
+    // SAFETY: cmd is recording; all handles live until after the fence wait.
+    unsafe {
+        let color_attachment = [vk::RenderingAttachmentInfo::default()
+            .image_view(color.view())
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            })];
+        let depth_attachment = vk::RenderingAttachmentInfo::default()
+            .image_view(depth.view())
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 0.0,
+                    stencil: 0,
+                },
+            });
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        };
+        let rendering = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&color_attachment)
+            .depth_attachment(&depth_attachment);
+        raw.cmd_begin_rendering(cmd, &rendering);
+        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+        raw.cmd_set_viewport(
+            cmd,
+            0,
+            &[vk::Viewport {
+                x: 0.0,
+                y: 0.0,
+                width: width as f32,
+                height: height as f32,
+                min_depth: 0.0,
+                max_depth: 1.0,
+            }],
+        );
+        raw.cmd_set_scissor(cmd, 0, &[area]);
+        raw.cmd_push_constants(
+            cmd,
+            bindings.layout,
+            vk::ShaderStageFlags::ALL,
+            0,
+            bytemuck::bytes_of(&view_proj.to_cols_array()),
+        );
+        raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
+        raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
+        raw.cmd_end_rendering(cmd);
+    }
+    if let Some(p) = profiler.as_mut() {
+        p.stamp(cmd, "final render");
+    }
+    barriers(
+        device,
+        cmd,
+        &[],
+        // Color attachment write -> copy to the readback buffer.
+        &[image_barrier(
+            color.raw(),
+            vk::ImageAspectFlags::COLOR,
+            (
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            ),
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+        )],
+    );
+    let region = vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width,
+            height,
+            depth: 1,
+        });
+    // SAFETY: the readback buffer holds width * height rgba32f texels.
+    unsafe {
+        raw.cmd_copy_image_to_buffer(
+            cmd,
+            color.raw(),
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            readback.raw(),
+            &[region],
+        )
+    };
+    barriers(
+        device,
+        cmd,
+        // Image copy -> host read after the fence.
+        &[buffer_barrier(
+            readback.raw(),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+        )],
+        &[],
+    );
+    if let Some(p) = profiler.as_mut() {
+        p.stamp(cmd, "final readback");
+    }
+    cmds.end()?;
+    cmds.submit_and_wait()?;
+    if let Some(p) = &profiler {
+        p.collect(times)?;
+    }
+    readback.read(pixels as usize)
+}
