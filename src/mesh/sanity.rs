@@ -1,0 +1,524 @@
+//! Mesh invariants, checked in one place (for tests and `--check` style
+//! debugging). Geometry is re-derived from the vertices in f64.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3};
+
+use super::Mesh;
+use crate::scene::Scene;
+
+/// Relative tolerance (to the patch size) under which two vertices of one
+/// patch count as the same point.
+const DUPLICATE_TOL: f64 = 1e-6;
+/// Relative tolerance (to the patch size) for a vertex to lie on an edge.
+const ON_EDGE_TOL: f64 = 1e-5;
+/// Relative tolerance (to the scene extent) for a vertex to lie on its plane.
+const PLANE_TOL: f64 = 1e-4;
+/// Relative tolerance (to the patch area) for element areas to sum to it.
+const AREA_SUM_TOL: f64 = 1e-4;
+/// Below this fraction of its patch's area an element counts as degenerate.
+const MIN_AREA: f64 = 1e-9;
+/// Relative tolerance between an element's stored and geometric area.
+const STORED_AREA_TOL: f64 = 1e-3;
+/// Above this many cells per edge query, scan the patch's vertices instead.
+const MAX_QUERY_CELLS: i64 = 64;
+
+fn d(v: Vec3) -> DVec3 {
+    v.as_dvec3()
+}
+
+/// Twice the vector area (Newell's method) of a polygon.
+fn newell(points: &[DVec3]) -> DVec3 {
+    let n = points.len();
+    (0..n).fold(DVec3::ZERO, |acc, i| {
+        acc + points[i].cross(points[(i + 1) % n])
+    })
+}
+
+type Cell = (i64, i64, i64);
+
+/// A uniform grid over one patch's vertices.
+struct Grid {
+    cell: f64,
+    cells: HashMap<Cell, Vec<u32>>,
+}
+
+impl Grid {
+    fn new(cell: f64, vertices: &[u32], positions: &[Vec3]) -> Self {
+        let mut grid = Grid {
+            cell,
+            cells: HashMap::new(),
+        };
+        for &v in vertices {
+            let key = grid.key(d(positions[v as usize]));
+            grid.cells.entry(key).or_default().push(v);
+        }
+        grid
+    }
+
+    fn key(&self, p: DVec3) -> Cell {
+        let q = (p / self.cell).floor();
+        (q.x as i64, q.y as i64, q.z as i64)
+    }
+
+    /// Vertices in the cells overlapping the box [lo, hi], or `None` when that
+    /// is more than [`MAX_QUERY_CELLS`] cells.
+    fn query(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) -> bool {
+        let (a, b) = (self.key(lo), self.key(hi));
+        let count = (b.0 - a.0 + 1)
+            .saturating_mul(b.1 - a.1 + 1)
+            .saturating_mul(b.2 - a.2 + 1);
+        if count > MAX_QUERY_CELLS {
+            return false;
+        }
+        out.clear();
+        for x in a.0..=b.0 {
+            for y in a.1..=b.1 {
+                for z in a.2..=b.2 {
+                    if let Some(vs) = self.cells.get(&(x, y, z)) {
+                        out.extend_from_slice(vs);
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+impl Mesh {
+    /// Checks the mesh's invariants against the scene it was built from and
+    /// names the first failure:
+    ///
+    /// * `patch_elements` has one range per patch, the ranges tile
+    ///   `elements` in order and each element's `patch` matches its range;
+    /// * every element has 3 or 4 distinct corners inside `vertices`;
+    /// * no element is degenerate (area > 1e-9 of its patch's);
+    /// * every element vertex lies on its patch's plane (within 1e-4 of the
+    ///   scene extent);
+    /// * every element's Newell normal points the patch normal's way;
+    /// * every element's stored `area` matches its geometry (1e-3 relative);
+    /// * no vertex is used by two patches;
+    /// * the element areas of each patch sum to its area (1e-4 relative);
+    /// * no two vertices of one patch coincide (1e-6 of the patch size);
+    /// * no T-junctions: no vertex of a patch lies inside an element edge of
+    ///   that patch (1e-5 of the patch size).
+    ///
+    /// Cost is about linear in the mesh size (per-patch spatial hashing).
+    pub fn sanity_check(&self, scene: &Scene) -> Result<(), String> {
+        self.check_ranges(scene)?;
+        let extent = f64::from(scene.extent());
+        let plane_tol = PLANE_TOL * if extent.is_finite() { extent } else { 0.0 };
+        let mut owner: Vec<Option<u32>> = vec![None; self.vertices.len()];
+        let mut used: Vec<u32> = Vec::new();
+        let mut points: Vec<DVec3> = Vec::with_capacity(4);
+        for (p, patch) in scene.patches.iter().enumerate() {
+            if patch.vertices.len() < 3 {
+                return Err(format!("patch {p} has {} vertices", patch.vertices.len()));
+            }
+            let range = self.patch_elements[p].clone();
+            let normal = d(patch.normal);
+            let origin = d(patch.vertices[0]);
+            let patch_area = f64::from(patch.area);
+            let (lo, hi) = patch
+                .vertices
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(d(*v)), hi.max(d(*v)))
+                });
+            let size = (hi - lo).length();
+            let mut area_sum = 0.0;
+            used.clear();
+            for e in range.clone() {
+                let el = &self.elements[e as usize];
+                let name = format!("element {e} (patch {p})");
+                if !(3..=4).contains(&el.corner_count) {
+                    return Err(format!("{name} has {} corners", el.corner_count));
+                }
+                let corners = el.corners();
+                points.clear();
+                for (k, &v) in corners.iter().enumerate() {
+                    if v as usize >= self.vertices.len() {
+                        return Err(format!(
+                            "{name} corner {k} is vertex {v}, but there are only {}",
+                            self.vertices.len()
+                        ));
+                    }
+                    if corners[..k].contains(&v) {
+                        return Err(format!("{name} uses vertex {v} twice"));
+                    }
+                    points.push(d(self.vertices[v as usize]));
+                }
+                let area_vec = 0.5 * newell(&points);
+                let area = area_vec.length();
+                if area <= MIN_AREA * patch_area {
+                    return Err(format!("{name} has zero area ({area:e})"));
+                }
+                for (k, q) in points.iter().enumerate() {
+                    let dist = (*q - origin).dot(normal).abs();
+                    if dist >= plane_tol {
+                        return Err(format!(
+                            "{name} corner {k} (vertex {}) is {dist:e} off its patch's plane",
+                            corners[k]
+                        ));
+                    }
+                }
+                if area_vec.dot(normal) <= 0.0 {
+                    return Err(format!(
+                        "{name} has the wrong orientation (faces away from its patch normal)"
+                    ));
+                }
+                let stored = f64::from(el.area);
+                if (stored - area).abs() > STORED_AREA_TOL * area {
+                    return Err(format!(
+                        "{name} stores area {stored:e}, its corners give {area:e}"
+                    ));
+                }
+                area_sum += stored;
+                for &v in corners {
+                    match owner[v as usize] {
+                        None => {
+                            owner[v as usize] = Some(p as u32);
+                            used.push(v);
+                        }
+                        Some(o) if o as usize == p => {}
+                        Some(o) => {
+                            return Err(format!(
+                                "vertex {v} is shared by patches {o} and {p} ({name})"
+                            ))
+                        }
+                    }
+                }
+            }
+            if (area_sum - patch_area).abs() > AREA_SUM_TOL * patch_area {
+                return Err(format!(
+                    "patch {p}: element areas sum to {area_sum:e}, the patch area is {patch_area:e}"
+                ));
+            }
+            self.check_patch_topology(p, range, &used, size)?;
+        }
+        Ok(())
+    }
+
+    fn check_ranges(&self, scene: &Scene) -> Result<(), String> {
+        if self.patch_elements.len() != scene.patches.len() {
+            return Err(format!(
+                "patch_elements has {} ranges for {} patches",
+                self.patch_elements.len(),
+                scene.patches.len()
+            ));
+        }
+        let mut next = 0u32;
+        for (p, r) in self.patch_elements.iter().enumerate() {
+            if r.start != next || r.end < r.start {
+                return Err(format!(
+                    "patch {p}: elements {r:?} do not follow the previous patch's (which end at {next})"
+                ));
+            }
+            if r.is_empty() {
+                return Err(format!("patch {p} has no elements"));
+            }
+            if r.end as usize > self.elements.len() {
+                return Err(format!(
+                    "patch {p}: elements {r:?} run past the {} elements",
+                    self.elements.len()
+                ));
+            }
+            if let Some(e) = r
+                .clone()
+                .find(|&e| self.elements[e as usize].patch as usize != p)
+            {
+                return Err(format!(
+                    "element {e} is in patch {p}'s range but says patch {}: elements of a patch must be contiguous",
+                    self.elements[e as usize].patch
+                ));
+            }
+            next = r.end;
+        }
+        if next as usize != self.elements.len() {
+            return Err(format!(
+                "elements {next}.. belong to no patch ({} elements)",
+                self.elements.len()
+            ));
+        }
+        Ok(())
+    }
+
+    /// Duplicate vertices and T-junctions within one patch.
+    fn check_patch_topology(
+        &self,
+        p: usize,
+        range: std::ops::Range<u32>,
+        used: &[u32],
+        size: f64,
+    ) -> Result<(), String> {
+        let dup_tol = DUPLICATE_TOL * size;
+        let edge_tol = ON_EDGE_TOL * size;
+        let elements = &self.elements[range.start as usize..range.end as usize];
+        let longest = elements
+            .iter()
+            .flat_map(|el| {
+                let c = el.corners();
+                (0..c.len()).map(move |k| (c[k], c[(k + 1) % c.len()]))
+            })
+            .map(|(a, b)| d(self.vertices[a as usize]).distance(d(self.vertices[b as usize])))
+            .fold(0.0, f64::max);
+        let cell = longest.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
+        let grid = Grid::new(cell, used, &self.vertices);
+        let mut near = Vec::new();
+
+        for &v in used {
+            let q = d(self.vertices[v as usize]);
+            let slack = DVec3::splat(dup_tol);
+            if !grid.query(q - slack, q + slack, &mut near) {
+                near.clear();
+                near.extend_from_slice(used);
+            }
+            if let Some(&w) = near
+                .iter()
+                .find(|&&w| w != v && d(self.vertices[w as usize]).distance(q) <= dup_tol)
+            {
+                return Err(format!(
+                    "patch {p}: vertices {v} and {w} are duplicates (both at {})",
+                    self.vertices[v as usize]
+                ));
+            }
+        }
+
+        for (offset, el) in elements.iter().enumerate() {
+            let c = el.corners();
+            for k in 0..c.len() {
+                let (ia, ib) = (c[k], c[(k + 1) % c.len()]);
+                let (a, b) = (d(self.vertices[ia as usize]), d(self.vertices[ib as usize]));
+                let slack = DVec3::splat(edge_tol);
+                if !grid.query(a.min(b) - slack, a.max(b) + slack, &mut near) {
+                    near.clear();
+                    near.extend_from_slice(used);
+                }
+                let ab = b - a;
+                let len = ab.length();
+                if len <= 0.0 {
+                    continue;
+                }
+                let dir = ab / len;
+                for &w in &near {
+                    if w == ia || w == ib {
+                        continue;
+                    }
+                    let aw = d(self.vertices[w as usize]) - a;
+                    let t = aw.dot(dir);
+                    if t <= edge_tol || t >= len - edge_tol {
+                        continue;
+                    }
+                    if (aw - t * dir).length() < edge_tol {
+                        return Err(format!(
+                            "patch {p}: T-junction, vertex {w} lies inside edge {ia}-{ib} of element {}",
+                            range.start as usize + offset
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use crate::mesh::testutil::{scene, unit_square};
+    use crate::mesh::{uniform, Element, Mesh};
+    use crate::scene::Scene;
+
+    /// The unit square at 2 x 2: 4 quads, 9 vertices, centre vertex 4.
+    fn square2() -> (Scene, Mesh) {
+        let s = scene(&[&unit_square()]);
+        let mesh = uniform(&s, 0.6);
+        assert_eq!(mesh.vertices[4], Vec3::new(0.5, 0.5, 0.0));
+        mesh.sanity_check(&s).expect("sane");
+        (s, mesh)
+    }
+
+    fn fails_with(s: &Scene, mesh: &Mesh, words: &str) {
+        match mesh.sanity_check(s) {
+            Ok(()) => panic!("broken mesh passed (expected '{words}')"),
+            Err(msg) => assert!(msg.contains(words), "expected '{words}', got: {msg}"),
+        }
+    }
+
+    fn quad(vertices: [u32; 4], points: &[Vec3], patch: u32) -> Element {
+        let pts: Vec<Vec3> = vertices.iter().map(|&i| points[i as usize]).collect();
+        let (area, centre) = crate::mesh::uniform::polygon_area_centroid(&pts);
+        Element {
+            corners: vertices,
+            corner_count: 4,
+            patch,
+            area,
+            centre,
+            normal: Vec3::Z,
+        }
+    }
+
+    #[test]
+    fn passes_on_uniform_meshes() {
+        let tri = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        let s = scene(&[&unit_square(), &tri]);
+        for max_edge in [2.0, 0.3, 0.05] {
+            uniform(&s, max_edge).sanity_check(&s).expect("sane");
+        }
+    }
+
+    #[test]
+    fn catches_duplicate_vertex() {
+        let (s, mut mesh) = square2();
+        mesh.vertices.push(mesh.vertices[4]);
+        // Element 0 (lower left) now uses the copy of the centre.
+        let k = mesh.elements[0]
+            .corners()
+            .iter()
+            .position(|&c| c == 4)
+            .expect("centre");
+        mesh.elements[0].corners[k] = 9;
+        fails_with(&s, &mesh, "duplicates");
+    }
+
+    #[test]
+    fn catches_flipped_element() {
+        let (s, mut mesh) = square2();
+        mesh.elements[2].corners[..4].reverse();
+        fails_with(&s, &mesh, "wrong orientation");
+    }
+
+    #[test]
+    fn catches_off_plane_vertex() {
+        let (s, mut mesh) = square2();
+        mesh.vertices[4].z += 0.01;
+        fails_with(&s, &mesh, "off its patch's plane");
+    }
+
+    #[test]
+    fn catches_area_mismatch() {
+        // The patch claims more area than its elements cover.
+        let (mut s, mesh) = square2();
+        s.patches[0].area *= 1.01;
+        fails_with(&s, &mesh, "element areas sum to");
+        // A hole: one element missing.
+        let (s, mut mesh) = square2();
+        mesh.elements.pop();
+        mesh.patch_elements[0].end -= 1;
+        fails_with(&s, &mesh, "element areas sum to");
+        // A stale stored area.
+        let (s, mut mesh) = square2();
+        mesh.elements[1].area *= 2.0;
+        fails_with(&s, &mesh, "stores area");
+    }
+
+    #[test]
+    fn catches_t_junction() {
+        // Left half one quad, right half two quads: vertex 6 = (0.5, 0.5)
+        // sits inside the left quad's edge (0.5, 0)-(0.5, 1).
+        let s = scene(&[&unit_square()]);
+        let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let vertices = vec![
+            p(0.0, 0.0),
+            p(0.5, 0.0),
+            p(1.0, 0.0),
+            p(0.0, 1.0),
+            p(0.5, 1.0),
+            p(1.0, 1.0),
+            p(0.5, 0.5),
+            p(1.0, 0.5),
+        ];
+        let elements = vec![
+            quad([0, 1, 4, 3], &vertices, 0),
+            quad([1, 2, 7, 6], &vertices, 0),
+            quad([6, 7, 5, 4], &vertices, 0),
+        ];
+        let mut mesh = Mesh {
+            vertices,
+            elements,
+            patch_elements: vec![0..3],
+        };
+        fails_with(&s, &mesh, "T-junction");
+        // Splitting the left quad too removes it.
+        mesh.vertices.push(p(0.0, 0.5));
+        mesh.elements[0] = quad([0, 1, 6, 8], &mesh.vertices, 0);
+        mesh.elements.push(quad([8, 6, 4, 3], &mesh.vertices, 0));
+        mesh.patch_elements = vec![0..4];
+        mesh.sanity_check(&s).expect("no T-junction any more");
+    }
+
+    #[test]
+    fn catches_structural_errors() {
+        let (s, mesh) = square2();
+
+        let mut m = mesh.clone();
+        m.elements[3].corners[2] = 99;
+        fails_with(&s, &m, "there are only");
+
+        let mut m = mesh.clone();
+        m.elements[3].corner_count = 5;
+        fails_with(&s, &m, "has 5 corners");
+
+        let mut m = mesh.clone();
+        m.elements[3].corner_count = 2;
+        fails_with(&s, &m, "has 2 corners");
+
+        let mut m = mesh.clone();
+        m.patch_elements = vec![0..3];
+        fails_with(&s, &m, "belong to no patch");
+
+        let mut m = mesh.clone();
+        m.patch_elements.push(4..4);
+        fails_with(&s, &m, "ranges for 1 patches");
+
+        let mut m = mesh.clone();
+        m.elements[1].patch = 7;
+        fails_with(&s, &m, "contiguous");
+
+        // Zero area: collapse an element onto a line.
+        let mut m = mesh.clone();
+        let c = m.elements[0].corners;
+        m.elements[0].corners = [c[0], c[1], c[1], c[0]];
+        fails_with(&s, &m, "twice");
+        m.vertices.push(Vec3::new(0.25, 0.0, 0.0));
+        m.elements[0].corners = [c[0], 9, c[1], 0];
+        m.elements[0].corner_count = 3;
+        fails_with(&s, &m, "zero area");
+    }
+
+    #[test]
+    fn catches_vertex_shared_between_patches() {
+        let a = unit_square();
+        let b = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        let s = scene(&[&a, &b]);
+        let mut mesh = uniform(&s, 1.0);
+        assert_eq!(mesh.vertices.len(), 8);
+        mesh.sanity_check(&s).expect("sane");
+        // Patch 1's corner 0 reuses patch 0's vertex 1 (the same point).
+        mesh.elements[1].corners[0] = 1;
+        fails_with(&s, &mesh, "shared by patches 0 and 1");
+    }
+
+    #[test]
+    fn is_fast_on_50k_elements() {
+        // 256^2 quads in one patch, plus 4^5 triangles.
+        let tri = [
+            Vec3::ZERO,
+            Vec3::new(0.0, 0.1, 0.0),
+            Vec3::new(0.0, 0.0, 0.05),
+        ];
+        let s = scene(&[&unit_square(), &tri]);
+        let mesh = uniform(&s, 1.0 / 256.0);
+        assert_eq!(mesh.elements.len(), 65536 + 1024);
+        let start = std::time::Instant::now();
+        mesh.sanity_check(&s).expect("sane");
+        assert!(start.elapsed().as_secs_f32() < 5.0, "{:?}", start.elapsed());
+    }
+}
