@@ -1,1 +1,3 @@
-//! formfactor
+//! Form factors: exact analytic references (point and patch to polygon).
+
+pub mod analytic;
