@@ -1,3 +1,5 @@
-//! Form factors: the GPU hemicube's CPU side, and the analytic reference.
+//! Form factors: the GPU hemicube's CPU side (frames, delta form factors)
+//! and the exact unoccluded point/polygon forms that judge it.
 
+pub mod analytic;
 pub mod hemicube;

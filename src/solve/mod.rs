@@ -1,1 +1,3 @@
-//! solve
+//! Progressive-refinement solver pieces: the unshot-power heap.
+
+pub mod heap;

@@ -1,0 +1,383 @@
+//! Exact unoccluded form factors, for reference and tests.
+//!
+//! Point to polygon by Lambert's contour integral,
+//! `F = (1/2pi) sum_i angle(g_i, g_{i+1}) * (n . normalize(g_i x g_{i+1}))`
+//! with `g_i = v_i - p` (sign chosen so a polygon facing `p` gives F > 0),
+//! after clipping the polygon to the half-space in front of `p`'s tangent
+//! plane. Polygon to polygon by Gauss-Legendre quadrature of the point form
+//! factor over the sending patch. All in `f64`.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+
+/// The (unnormalised) Newell normal of a polygon: twice its area times its
+/// unit normal, pointing to the side from which it runs counter-clockwise.
+fn newell(poly: &[DVec3]) -> DVec3 {
+    let n = poly.len();
+    (0..n).fold(DVec3::ZERO, |acc, i| acc + poly[i].cross(poly[(i + 1) % n]))
+}
+
+/// Clips `poly` to the half-space `(x - p) . n >= 0` (Sutherland-Hodgman).
+fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
+    let k = poly.len();
+    let d: Vec<f64> = poly.iter().map(|&v| (v - p).dot(n)).collect();
+    if d.iter().all(|&x| x >= 0.0) {
+        return poly.to_vec();
+    }
+    let mut out = Vec::with_capacity(k + 2);
+    for i in 0..k {
+        let j = (i + 1) % k;
+        let (a, b) = (poly[i], poly[j]);
+        let (da, db) = (d[i], d[j]);
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            // Put the intersection exactly on the plane (relative to p).
+            let x = a + (b - a) * t;
+            out.push(x - n * (x - p).dot(n));
+        }
+    }
+    out
+}
+
+/// The form factor from a differential area at `p` with unit normal `n` to
+/// the planar polygon `poly` (counter-clockwise seen from its front),
+/// without occlusion.
+///
+/// The polygon is one-sided: if `p` is not strictly in front of its plane
+/// the result is 0. Parts of the polygon behind `p`'s tangent plane
+/// contribute nothing. Degenerate polygons (fewer than 3 vertices, zero
+/// area) give 0.
+pub fn point_to_polygon(p: DVec3, n: DVec3, poly: &[DVec3]) -> f64 {
+    if poly.len() < 3 {
+        return 0.0;
+    }
+    let pn = newell(poly);
+    let twice_area = pn.length();
+    if twice_area <= 0.0 || !twice_area.is_finite() {
+        return 0.0;
+    }
+    // One-sided receiver: p must be in front of the polygon's plane.
+    let centroid = poly.iter().copied().sum::<DVec3>() / poly.len() as f64;
+    if (p - centroid).dot(pn) <= 0.0 {
+        return 0.0;
+    }
+    let clipped = clip_to_front(p, n, poly);
+    if clipped.len() < 3 {
+        return 0.0;
+    }
+    let m = clipped.len();
+    let mut sum = 0.0;
+    for i in 0..m {
+        let gi = clipped[i] - p;
+        let gj = clipped[(i + 1) % m] - p;
+        let c = gi.cross(gj);
+        let cl = c.length();
+        if cl <= 0.0 {
+            // Collinear with p (or a vertex at p): no contribution.
+            continue;
+        }
+        let angle = cl.atan2(gi.dot(gj));
+        sum += angle * n.dot(c) / cl;
+    }
+    // Counter-clockwise seen from p makes g_i x g_{i+1} point away from the
+    // polygon's front, i.e. towards p's back: negate.
+    (-sum / (2.0 * PI)).max(0.0)
+}
+
+/// Gauss-Legendre nodes and weights on [0, 1] of the given order.
+pub fn gauss_legendre_01(order: usize) -> Vec<(f64, f64)> {
+    let m = order.max(1);
+    let mut out = Vec::with_capacity(m);
+    for i in 0..m {
+        // Initial guess (Tricomi), then Newton on P_m.
+        let mut x = (PI * (i as f64 + 0.75) / (m as f64 + 0.5)).cos();
+        let mut dp = 1.0;
+        for _ in 0..100 {
+            let (p, d) = legendre(m, x);
+            dp = d;
+            let dx = p / d;
+            x -= dx;
+            if dx.abs() < 1e-15 {
+                break;
+            }
+        }
+        let (_, d) = legendre(m, x);
+        if d.is_finite() {
+            dp = d;
+        }
+        let w = 2.0 / ((1.0 - x * x) * dp * dp);
+        out.push((0.5 * (1.0 - x), 0.5 * w));
+    }
+    out.reverse();
+    out
+}
+
+/// P_m(x) and P_m'(x).
+fn legendre(m: usize, x: f64) -> (f64, f64) {
+    let (mut p0, mut p1) = (1.0, x);
+    if m == 0 {
+        return (1.0, 0.0);
+    }
+    for k in 2..=m {
+        let kf = k as f64;
+        let p2 = ((2.0 * kf - 1.0) * x * p1 - (kf - 1.0) * p0) / kf;
+        p0 = p1;
+        p1 = p2;
+    }
+    let d = m as f64 * (x * p1 - p0) / (x * x - 1.0);
+    (p1, d)
+}
+
+/// The area of a planar polygon.
+pub fn polygon_area(poly: &[DVec3]) -> f64 {
+    0.5 * newell(poly).length()
+}
+
+/// The form factor F_ij from planar polygon `from` (i) to planar polygon
+/// `to` (j), both counter-clockwise seen from their fronts, without
+/// occlusion: `F_ij = (1/A_i) * integral over A_i of F_{dA->j} dA`.
+///
+/// Patch i is triangulated as a fan; each triangle is mapped from the unit
+/// square by Duffy's transform and integrated with a tensor Gauss-Legendre
+/// rule of order `samples_per_edge` (so `samples_per_edge^2` points per
+/// triangle). Only the front side of each polygon counts.
+pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize) -> f64 {
+    if from.len() < 3 || to.len() < 3 {
+        return 0.0;
+    }
+    let ni = newell(from);
+    let area = 0.5 * ni.length();
+    if area <= 0.0 || !area.is_finite() {
+        return 0.0;
+    }
+    let n = ni / (2.0 * area);
+    let rule = gauss_legendre_01(samples_per_edge);
+    let a = from[0];
+    let mut total = 0.0;
+    for k in 1..from.len() - 1 {
+        let (b, c) = (from[k], from[k + 1]);
+        let e1 = b - a;
+        let e2 = c - b;
+        // x(u, v) = a + u (b - a) + u v (c - b); dA = u * |e1 x e2| du dv.
+        let jac = e1.cross(e2).length();
+        if jac <= 0.0 {
+            continue;
+        }
+        let mut tri = 0.0;
+        for &(u, wu) in &rule {
+            let mut row = 0.0;
+            for &(v, wv) in &rule {
+                let x = a + e1 * u + e2 * (u * v);
+                row += wv * point_to_polygon(x, n, to);
+            }
+            tri += wu * u * row;
+        }
+        total += tri * jac;
+    }
+    total / area
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dv(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    /// Unit square at z = 0 facing +z.
+    fn floor() -> Vec<DVec3> {
+        vec![
+            dv(0.0, 0.0, 0.0),
+            dv(1.0, 0.0, 0.0),
+            dv(1.0, 1.0, 0.0),
+            dv(0.0, 1.0, 0.0),
+        ]
+    }
+
+    fn reversed(p: &[DVec3]) -> Vec<DVec3> {
+        p.iter().rev().copied().collect()
+    }
+
+    #[test]
+    fn gauss_legendre_integrates_polynomials() {
+        for m in 1..=20 {
+            let rule = gauss_legendre_01(m);
+            assert_eq!(rule.len(), m);
+            let wsum: f64 = rule.iter().map(|r| r.1).sum();
+            assert!((wsum - 1.0).abs() < 1e-13, "m {m}");
+            // Exact up to degree 2m - 1.
+            let deg = 2 * m - 1;
+            let integral: f64 = rule.iter().map(|&(x, w)| w * x.powi(deg as i32)).sum();
+            assert!((integral - 1.0 / (deg as f64 + 1.0)).abs() < 1e-12, "m {m}");
+        }
+    }
+
+    #[test]
+    fn opposed_unit_squares() {
+        let ceiling = reversed(&floor().iter().map(|v| *v + DVec3::Z).collect::<Vec<_>>());
+        // Exact (closed form for parallel rectangles): 0.19982490.
+        let f = polygon_to_polygon(&floor(), &ceiling, 4);
+        assert!((f - 0.199_824_896).abs() < 5e-6, "F = {f}");
+        let f = polygon_to_polygon(&floor(), &ceiling, 8);
+        assert!((f - 0.199_824_896).abs() < 1e-8, "F = {f}");
+        let g = polygon_to_polygon(&ceiling, &floor(), 8);
+        assert!((f - g).abs() < 1e-9);
+    }
+
+    #[test]
+    fn perpendicular_unit_squares_sharing_an_edge() {
+        // Floor facing +z; wall in the plane x = 0 facing +x, sharing the
+        // edge x = 0, z = 0.
+        let wall = vec![
+            dv(0.0, 0.0, 0.0),
+            dv(0.0, 1.0, 0.0),
+            dv(0.0, 1.0, 1.0),
+            dv(0.0, 0.0, 1.0),
+        ];
+        assert!(newell(&wall).x > 0.0);
+        // Exact: 0.20004378. The integrand has a log-type kink at the shared
+        // edge, so convergence is algebraic rather than spectral.
+        let f = polygon_to_polygon(&floor(), &wall, 8);
+        assert!((f - 0.200_043_783).abs() < 5e-5, "F = {f}");
+        let f = polygon_to_polygon(&floor(), &wall, 16);
+        assert!((f - 0.200_043_783).abs() < 1e-7, "F = {f}");
+        let g = polygon_to_polygon(&wall, &floor(), 16);
+        assert!((f - g).abs() < 1e-9, "{f} vs {g}");
+    }
+
+    fn regular_polygon(r: f64, h: f64, k: usize, facing_down: bool) -> Vec<DVec3> {
+        let mut v: Vec<DVec3> = (0..k)
+            .map(|i| {
+                let t = 2.0 * PI * i as f64 / k as f64;
+                dv(r * t.cos(), r * t.sin(), h)
+            })
+            .collect();
+        if facing_down {
+            v.reverse();
+        }
+        v
+    }
+
+    #[test]
+    fn point_under_disc() {
+        for (r, h) in [(1.0, 1.0), (0.5, 2.0), (3.0, 0.25)] {
+            let disc = r * r / (r * r + h * h);
+            let poly = regular_polygon(r, h, 64, true);
+            let f = point_to_polygon(DVec3::ZERO, DVec3::Z, &poly);
+            // The inscribed 64-gon is slightly smaller than the disc.
+            assert!(
+                f < disc && f > disc * (1.0 - 2e-3),
+                "r {r} h {h}: {f} vs {disc}"
+            );
+            // A finer polygon converges to the disc.
+            let fine = point_to_polygon(DVec3::ZERO, DVec3::Z, &regular_polygon(r, h, 1024, true));
+            assert!((fine - disc).abs() < 1e-5 * disc, "{fine} vs {disc}");
+        }
+    }
+
+    #[test]
+    fn behind_and_facing_away_give_zero() {
+        let down = regular_polygon(1.0, 1.0, 16, true);
+        let up = regular_polygon(1.0, 1.0, 16, false);
+        assert!(point_to_polygon(DVec3::ZERO, DVec3::Z, &down) > 0.4);
+        // Facing away from p.
+        assert_eq!(point_to_polygon(DVec3::ZERO, DVec3::Z, &up), 0.0);
+        // Behind p's tangent plane (p looks down at -z).
+        assert_eq!(point_to_polygon(DVec3::ZERO, -DVec3::Z, &down), 0.0);
+        // p in the polygon's plane.
+        assert_eq!(point_to_polygon(dv(5.0, 0.0, 1.0), DVec3::X, &down), 0.0);
+        // Patch to patch: back to back, and facing the same way.
+        let ceiling_up: Vec<DVec3> = floor().iter().map(|v| *v + DVec3::Z).collect();
+        assert_eq!(polygon_to_polygon(&floor(), &ceiling_up, 4), 0.0);
+        let below: Vec<DVec3> =
+            reversed(&floor().iter().map(|v| *v - DVec3::Z).collect::<Vec<_>>());
+        assert_eq!(polygon_to_polygon(&floor(), &below, 4), 0.0);
+        // Degenerate inputs.
+        assert_eq!(point_to_polygon(DVec3::ZERO, DVec3::Z, &down[..2]), 0.0);
+        assert_eq!(polygon_to_polygon(&floor()[..2], &down, 4), 0.0);
+    }
+
+    #[test]
+    fn polygon_crossing_the_tangent_plane_is_clipped() {
+        // A large vertical wall facing -x at x = 1, spanning z in [-1, 1],
+        // seen from the origin with n = +z: only the upper half counts.
+        let wall = |z0: f64, z1: f64| {
+            vec![
+                dv(1.0, -1.0, z0),
+                dv(1.0, -1.0, z1),
+                dv(1.0, 1.0, z1),
+                dv(1.0, 1.0, z0),
+            ]
+        };
+        let full = wall(-1.0, 1.0);
+        let upper = wall(0.0, 1.0);
+        assert!(newell(&full).x < 0.0);
+        let f_full = point_to_polygon(DVec3::ZERO, DVec3::Z, &full);
+        let f_upper = point_to_polygon(DVec3::ZERO, DVec3::Z, &upper);
+        assert!(f_upper > 0.0);
+        assert!((f_full - f_upper).abs() < 1e-14, "{f_full} vs {f_upper}");
+        // Entirely below: zero.
+        assert_eq!(
+            point_to_polygon(DVec3::ZERO, DVec3::Z, &wall(-1.0, -0.5)),
+            0.0
+        );
+        // Tilted receiver normal: the two halves split differently but the
+        // total is the sum over a partition of the clipped polygon.
+        let n = dv(0.3, 0.0, 1.0).normalize();
+        let a = point_to_polygon(DVec3::ZERO, n, &wall(-1.0, 0.0));
+        let b = point_to_polygon(DVec3::ZERO, n, &wall(0.0, 1.0));
+        let c = point_to_polygon(DVec3::ZERO, n, &full);
+        assert!(a > 0.0);
+        assert!((a + b - c).abs() < 1e-12, "{a} + {b} vs {c}");
+    }
+
+    #[test]
+    fn reciprocity_for_skewed_rectangles() {
+        // i: 2 x 1 rectangle in z = 0 facing +z.
+        let ri = vec![
+            dv(0.0, 0.0, 0.0),
+            dv(2.0, 0.0, 0.0),
+            dv(2.0, 1.0, 0.0),
+            dv(0.0, 1.0, 0.0),
+        ];
+        // j: a 0.7 x 1.3 rectangle above, tilted and rotated, facing down-ish.
+        let centre = dv(0.8, 0.4, 1.5);
+        let u = dv(1.0, 0.4, 0.3).normalize();
+        let w = dv(-0.2, 1.0, 0.1);
+        let w = (w - u * w.dot(u)).normalize();
+        let (hu, hw) = (0.35, 0.65);
+        let rj = vec![
+            centre - u * hu - w * hw,
+            centre - u * hu + w * hw,
+            centre + u * hu + w * hw,
+            centre + u * hu - w * hw,
+        ];
+        let nj = newell(&rj);
+        assert!(nj.z < 0.0, "j must face i");
+        // Every vertex of each lies strictly in front of the other.
+        assert!(rj.iter().all(|v| v.z > 0.0));
+        assert!(ri.iter().all(|v| (*v - rj[0]).dot(nj) > 0.0));
+
+        let (ai, aj) = (polygon_area(&ri), polygon_area(&rj));
+        assert!((ai - 2.0).abs() < 1e-12 && (aj - 0.91).abs() < 1e-12);
+        let fij = polygon_to_polygon(&ri, &rj, 12);
+        let fji = polygon_to_polygon(&rj, &ri, 12);
+        assert!(fij > 0.01 && fji > 0.01);
+        let (l, r) = (ai * fij, aj * fji);
+        assert!((l - r).abs() < 1e-6 * l, "{l} vs {r}");
+    }
+
+    #[test]
+    fn converges_with_order() {
+        let ceiling = reversed(&floor().iter().map(|v| *v + DVec3::Z).collect::<Vec<_>>());
+        let exact = 0.199_824_896;
+        let e2 = (polygon_to_polygon(&floor(), &ceiling, 2) - exact).abs();
+        let e6 = (polygon_to_polygon(&floor(), &ceiling, 6) - exact).abs();
+        assert!(e6 < e2, "{e6} !< {e2}");
+    }
+}
