@@ -347,6 +347,11 @@ mod tests {
         }
     }
 
+    /// `patch_elements` for one patch with elements `0..n`.
+    fn one_range(n: u32) -> Vec<std::ops::Range<u32>> {
+        std::iter::once(0..n).collect()
+    }
+
     fn quad(vertices: [u32; 4], points: &[Vec3], patch: u32) -> Element {
         let pts: Vec<Vec3> = vertices.iter().map(|&i| points[i as usize]).collect();
         let (area, centre) = crate::mesh::uniform::polygon_area_centroid(&pts);
@@ -438,14 +443,14 @@ mod tests {
         let mut mesh = Mesh {
             vertices,
             elements,
-            patch_elements: vec![0..3],
+            patch_elements: one_range(3),
         };
         fails_with(&s, &mesh, "T-junction");
         // Splitting the left quad too removes it.
         mesh.vertices.push(p(0.0, 0.5));
         mesh.elements[0] = quad([0, 1, 6, 8], &mesh.vertices, 0);
         mesh.elements.push(quad([8, 6, 4, 3], &mesh.vertices, 0));
-        mesh.patch_elements = vec![0..4];
+        mesh.patch_elements = one_range(4);
         mesh.sanity_check(&s).expect("no T-junction any more");
     }
 
@@ -466,7 +471,7 @@ mod tests {
         fails_with(&s, &m, "has 2 corners");
 
         let mut m = mesh.clone();
-        m.patch_elements = vec![0..3];
+        m.patch_elements = one_range(3);
         fails_with(&s, &m, "belong to no patch");
 
         let mut m = mesh.clone();
