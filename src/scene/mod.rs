@@ -189,15 +189,20 @@ pub fn load_from_str(
 }
 
 /// A command-line scene argument: a file if one exists at that path, else a
-/// built-in scene name (`cornell`, or `builtin:cornell`).
+/// built-in scene name (`cornell`, or `builtin:cornell`). Otherwise an
+/// [`Error::Io`] (not found) for the path that lists the built-in names.
 pub fn load_scene_arg(arg: &str) -> Result<Scene> {
     let path = Path::new(arg);
-    if path.exists() {
+    if path.is_file() {
         return load(path);
     }
     let builtin = arg.strip_prefix("builtin:").unwrap_or(arg);
     if let Some(scene) = load_builtin(builtin) {
         return scene;
+    }
+    if path.exists() {
+        // A directory or the like: let reading it say what is wrong.
+        return load(path);
     }
     Err(Error::io(
         path,

@@ -193,14 +193,19 @@ fn resolve_index(word: &str, count: usize) -> std::result::Result<usize, String>
     let i: i64 = v
         .parse()
         .map_err(|_| format!("`{word}` is not a vertex index"))?;
-    let defined = format!(
-        "{count} vertex{} defined above this line",
-        if count == 1 { " is" } else { "es are" }
-    );
+    let defined = if count == 1 {
+        "1 vertex is defined above this line".to_owned()
+    } else {
+        format!("{count} vertices are defined above this line")
+    };
     if i == 0 {
         return Err("vertex index 0 is invalid (OBJ indices start at 1)".into());
     }
-    let resolved = if i > 0 { i - 1 } else { count as i64 + i };
+    let resolved = if i > 0 {
+        i - 1
+    } else {
+        (count as i64).saturating_add(i)
+    };
     if resolved < 0 || resolved >= count as i64 {
         return Err(format!("vertex index {i} is out of range: {defined}"));
     }

@@ -253,6 +253,8 @@ fn bad_face_references() {
         6,
         "not a vertex index",
     );
+    let huge = format!("{head}f 1 2 -9223372036854775808\n");
+    assert_err_at(load_obj(&huge), "t.obj", 6, "out of range");
     // A face may only use vertices defined above it.
     let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\n";
     assert_err_at(load_obj(obj), "t.obj", 5, "out of range");
@@ -463,4 +465,13 @@ fn camera_comment() {
         assert_eq!(at.line, 8, "{bad}: {what}");
         assert!(hint.unwrap().contains("# vkrad camera eye"));
     }
+}
+
+#[test]
+fn error_message_reads_well() {
+    let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n";
+    let msg = load_obj(obj).unwrap_err().to_string();
+    assert!(msg.starts_with(
+        "t.obj:6: vertex index 4 is out of range: 3 vertices are defined above this line\n  hint: "
+    ));
 }
