@@ -6,9 +6,19 @@
 //! which the vertices run counter-clockwise (OBJ convention). Every face blocks
 //! light from both sides.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+
+use crate::error::{Error, Result};
+
+mod mtl;
+mod objscan;
+mod polygon;
+#[cfg(test)]
+mod tests;
+
+pub use polygon::PLANARITY_TOLERANCE;
 
 /// A diffuse material.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,4 +115,259 @@ impl Scene {
     pub fn total_area(&self) -> f32 {
         self.patches.iter().map(|p| p.area).sum()
     }
+}
+
+/// The embedded scenes: name, OBJ text, MTL file name, MTL text.
+const BUILTINS: &[(&str, &str, &str, &str)] = &[
+    (
+        "cornell",
+        include_str!("../../scenes/cornell.obj"),
+        "cornell.mtl",
+        include_str!("../../scenes/cornell.mtl"),
+    ),
+    (
+        "simple",
+        include_str!("../../scenes/simple.obj"),
+        "simple.mtl",
+        include_str!("../../scenes/simple.mtl"),
+    ),
+];
+
+/// Names of the built-in scenes, for `load_builtin` and `load_scene_arg`.
+pub fn builtin_names() -> &'static [&'static str] {
+    &["cornell", "simple"]
+}
+
+/// Loads a built-in scene; `None` when there is none of that name.
+pub fn load_builtin(name: &str) -> Option<Result<Scene>> {
+    let &(name, obj, mtl_name, mtl) = BUILTINS.iter().find(|b| b.0 == name)?;
+    Some(load_text(
+        PathBuf::from(format!("builtin:{name}")),
+        name.to_owned(),
+        obj,
+        &|lib: &str| {
+            let path = PathBuf::from(format!("builtin:{lib}"));
+            Ok((path, (lib == mtl_name).then(|| mtl.to_owned())))
+        },
+    ))
+}
+
+/// Loads an OBJ file and the MTL files its `mtllib` statements name
+/// (relative to the OBJ's folder).
+pub fn load(path: &Path) -> Result<Scene> {
+    let obj = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    let name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string());
+    load_text(path.to_path_buf(), name, &obj, &|lib: &str| {
+        let mtl_path = dir.join(lib);
+        match std::fs::read_to_string(&mtl_path) {
+            Ok(text) => Ok((mtl_path, Some(text))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok((mtl_path, None)),
+            Err(e) => Err(Error::io(&mtl_path, e)),
+        }
+    })
+}
+
+/// Loads a scene from OBJ text. `name` is the file name used in messages
+/// (its stem names the scene); `mtl_lookup` returns the text of the MTL file
+/// a `mtllib` statement names, or `None` when there is no such file.
+pub fn load_from_str(
+    name: &str,
+    obj: &str,
+    mtl_lookup: impl Fn(&str) -> Option<String>,
+) -> Result<Scene> {
+    let stem = Path::new(name)
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| name.to_owned());
+    load_text(PathBuf::from(name), stem, obj, &|lib: &str| {
+        Ok((PathBuf::from(lib), mtl_lookup(lib)))
+    })
+}
+
+/// A command-line scene argument: a file if one exists at that path, else a
+/// built-in scene name (`cornell`, or `builtin:cornell`). Otherwise an
+/// [`Error::Io`] (not found) for the path that lists the built-in names.
+pub fn load_scene_arg(arg: &str) -> Result<Scene> {
+    let path = Path::new(arg);
+    if path.is_file() {
+        return load(path);
+    }
+    let builtin = arg.strip_prefix("builtin:").unwrap_or(arg);
+    if let Some(scene) = load_builtin(builtin) {
+        return scene;
+    }
+    if path.exists() {
+        // A directory or the like: let reading it say what is wrong.
+        return load(path);
+    }
+    Err(Error::io(
+        path,
+        std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            format!(
+                "no such file, and no built-in scene of that name\n  hint: built-in scenes: {}",
+                builtin_names().join(", ")
+            ),
+        ),
+    ))
+}
+
+/// Finds an MTL file by its `mtllib` name: the path to name in messages and
+/// its text (`None` when it does not exist).
+type MtlResolver<'a> = dyn Fn(&str) -> Result<(PathBuf, Option<String>)> + 'a;
+
+fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) -> Result<Scene> {
+    let scan = objscan::scan(&source, obj)?;
+    let mut warnings = Vec::new();
+    let at = |line: usize| format!("{}:{line}", source.display());
+
+    // Materials of every mtllib, in order.
+    let mut materials: Vec<Material> = Vec::new();
+    let mut defined_at: Vec<(PathBuf, usize)> = Vec::new();
+    let mut libs_read: Vec<&str> = Vec::new();
+    for lib in &scan.mtllibs {
+        if libs_read.contains(&lib.name.as_str()) {
+            continue;
+        }
+        libs_read.push(&lib.name);
+        let (path, text) = resolve(&lib.name)?;
+        let Some(text) = text else {
+            return Err(Error::scene(
+                &source,
+                lib.line,
+                format!(
+                    "material library \"{}\" not found (looked for {})",
+                    lib.name,
+                    path.display()
+                ),
+                Some("put the MTL file next to the OBJ file, or fix the file name in the `mtllib` line"),
+            ));
+        };
+        for entry in mtl::read(&path, &text, &mut warnings)? {
+            if let Some(i) = materials.iter().position(|m| m.name == entry.material.name) {
+                let (first_file, first_line) = &defined_at[i];
+                return Err(Error::scene(
+                    &path,
+                    entry.line,
+                    format!(
+                        "material \"{}\" is already defined at {}:{first_line}",
+                        entry.material.name,
+                        first_file.display()
+                    ),
+                    Some("give each material a unique name"),
+                ));
+            }
+            materials.push(entry.material);
+            defined_at.push((path.clone(), entry.line));
+        }
+    }
+
+    if scan.faces.is_empty() {
+        return Err(Error::scene(
+            &source,
+            0,
+            "the scene has no faces",
+            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
+        ));
+    }
+
+    // usemtl statement -> material index, resolved on first use by a face.
+    let mut used: Vec<Option<usize>> = vec![None; scan.usemtls.len()];
+    let mut default_material: Option<usize> = None;
+    let mut unassigned: Option<(usize, usize)> = None; // (first line, count)
+    let mut patches = Vec::with_capacity(scan.faces.len());
+    for face in &scan.faces {
+        let material = match face.usemtl {
+            Some(u) => match used[u] {
+                Some(m) => m,
+                None => {
+                    let statement = &scan.usemtls[u];
+                    let Some(m) = materials.iter().position(|m| m.name == statement.name) else {
+                        let libs = if scan.mtllibs.is_empty() {
+                            "no `mtllib` statement names a material library".to_owned()
+                        } else {
+                            let names: Vec<&str> =
+                                scan.mtllibs.iter().map(|l| l.name.as_str()).collect();
+                            format!("it is not in {}", names.join(", "))
+                        };
+                        return Err(Error::scene(
+                            &source,
+                            statement.line,
+                            format!(
+                                "unknown material \"{}\" (used by the face on line {}): {libs}",
+                                statement.name, face.line
+                            ),
+                            Some("define it with `newmtl NAME` in the MTL file named by `mtllib`, or fix the name in the `usemtl` line"),
+                        ));
+                    };
+                    used[u] = Some(m);
+                    m
+                }
+            },
+            None => {
+                let entry = unassigned.get_or_insert((face.line, 0));
+                entry.1 += 1;
+                *default_material.get_or_insert_with(|| {
+                    materials.push(Material {
+                        name: "(default)".to_owned(),
+                        reflectance: Vec3::splat(mtl::DEFAULT_REFLECTANCE),
+                        emission: Vec3::ZERO,
+                    });
+                    materials.len() - 1
+                })
+            }
+        };
+        let vertices: Vec<DVec3> = face.vertices.iter().map(|&i| scan.positions[i]).collect();
+        let outcome = polygon::process(&vertices)
+            .map_err(|r| Error::scene(&source, face.line, r.what, Some(r.hint)))?;
+        for w in outcome.warnings {
+            warnings.push(format!("{}: {w}", at(face.line)));
+        }
+        for p in outcome.pieces {
+            patches.push(Patch {
+                vertices: p.vertices,
+                normal: p.normal,
+                area: p.area,
+                material,
+                name: face.name.clone(),
+                line: face.line,
+            });
+        }
+    }
+    if let Some((line, count)) = unassigned {
+        warnings.push(format!(
+            "{}: {count} face(s) have no material (no `usemtl` before them); using grey reflectance {}",
+            at(line),
+            mtl::DEFAULT_REFLECTANCE
+        ));
+    }
+
+    if !patches.iter().any(|p| materials[p.material].is_emitter()) {
+        let what = match materials.iter().find(|m| m.is_emitter()) {
+            Some(m) => format!(
+                "no emitter: material \"{}\" has a positive Ke but no face uses it",
+                m.name
+            ),
+            None => "no emitter: no material has a positive Ke".to_owned(),
+        };
+        return Err(Error::scene(
+            &source,
+            0,
+            what,
+            Some("give a light material an emitted radiance in the MTL file, e.g. `Ke 10 10 10` after its `newmtl` line, and assign it to the light's faces with `usemtl`"),
+        ));
+    }
+
+    Ok(Scene {
+        name,
+        source,
+        patches,
+        materials,
+        camera: scan.camera.map(|(c, _)| c),
+        warnings,
+    })
 }

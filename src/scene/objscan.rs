@@ -1,0 +1,279 @@
+//! A light OBJ line scanner.
+//!
+//! Reads the statements vkrad needs (`v`, `f`, `o`, `g`, `usemtl`, `mtllib`
+//! and the `# vkrad camera ...` comment), remembers the 1-based line of each,
+//! and checks their syntax, so that every later error can name a line.
+//! Statements it does not know (`vt`, `vn`, `s`, `l`, ...) are ignored.
+
+use std::path::Path;
+
+use glam::DVec3;
+
+use super::Camera;
+use crate::error::{Error, Result};
+
+/// One `f` statement, in file order.
+#[derive(Debug, Clone)]
+pub(crate) struct ObjFace {
+    /// 1-based line of the `f` statement.
+    pub line: usize,
+    /// 0-based indices into `ObjScan::positions`.
+    pub vertices: Vec<usize>,
+    /// Index into `ObjScan::usemtls` of the `usemtl` in effect, if any.
+    pub usemtl: Option<usize>,
+    /// The last `o` or `g` name seen before the face (may be empty).
+    pub name: String,
+}
+
+/// A named statement (`usemtl NAME`, `mtllib FILE`) and its line.
+#[derive(Debug, Clone)]
+pub(crate) struct Named {
+    pub name: String,
+    pub line: usize,
+}
+
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ObjScan {
+    pub positions: Vec<DVec3>,
+    pub faces: Vec<ObjFace>,
+    pub usemtls: Vec<Named>,
+    pub mtllibs: Vec<Named>,
+    /// The camera comment and its line.
+    pub camera: Option<(Camera, usize)>,
+}
+
+const CAMERA_FORMAT: &str =
+    "write it as `# vkrad camera eye X Y Z look_at X Y Z up X Y Z fov DEG` (fov = vertical field of view in degrees)";
+
+/// Scans OBJ text. `file` is only used in error messages.
+pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
+    let mut out = ObjScan::default();
+    let mut name = String::new();
+    let mut usemtl: Option<usize> = None;
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let raw = if i == 0 {
+            raw.trim_start_matches('\u{feff}')
+        } else {
+            raw
+        };
+        let line = raw.trim();
+        let err = |what: String, hint: &str| Error::scene(file, line_no, what, Some(hint));
+        if let Some(comment) = line.strip_prefix('#') {
+            let mut words = comment.split_whitespace();
+            if words.next() == Some("vkrad") && words.next() == Some("camera") {
+                if let Some((_, first)) = &out.camera {
+                    return Err(err(
+                        format!("a second camera comment (the first is on line {first})"),
+                        "keep only one `# vkrad camera ...` line",
+                    ));
+                }
+                let camera =
+                    parse_camera(words.collect()).map_err(|what| err(what, CAMERA_FORMAT))?;
+                out.camera = Some((camera, line_no));
+            }
+            continue;
+        }
+        let mut words = line.split_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        let rest = line[keyword.len()..].trim();
+        match keyword {
+            "v" => out.positions.push(parse_vertex(words.collect()).map_err(|what| {
+                err(
+                    what,
+                    "a vertex reads `v X Y Z` with three finite numbers (an optional fourth is the weight w)",
+                )
+            })?),
+            "f" => {
+                let refs: Vec<&str> = words.collect();
+                if refs.len() < 3 {
+                    return Err(err(
+                        format!(
+                            "a face needs at least 3 vertices, this one has {}",
+                            refs.len()
+                        ),
+                        "remove the line, or list 3 or more vertex indices (`f 1 2 3`)",
+                    ));
+                }
+                let count = out.positions.len();
+                let vertices = refs
+                    .iter()
+                    .map(|r| resolve_index(r, count))
+                    .collect::<std::result::Result<Vec<_>, _>>()
+                    .map_err(|what| {
+                        err(
+                            what,
+                            "indices start at 1 and may only refer to `v` lines above the face; \
+                             negative indices count back from the last vertex (-1 = last)",
+                        )
+                    })?;
+                out.faces.push(ObjFace {
+                    line: line_no,
+                    vertices,
+                    usemtl,
+                    name: name.clone(),
+                });
+            }
+            "o" | "g" => name = rest.to_owned(),
+            "usemtl" => {
+                if rest.is_empty() {
+                    return Err(err(
+                        "`usemtl` without a material name".into(),
+                        "write `usemtl NAME` with a material defined by `newmtl NAME` in the MTL file",
+                    ));
+                }
+                out.usemtls.push(Named {
+                    name: rest.to_owned(),
+                    line: line_no,
+                });
+                usemtl = Some(out.usemtls.len() - 1);
+            }
+            "mtllib" => {
+                if rest.is_empty() {
+                    return Err(err(
+                        "`mtllib` without a file name".into(),
+                        "write `mtllib FILE.mtl`, with the MTL file next to the OBJ",
+                    ));
+                }
+                out.mtllibs.push(Named {
+                    name: rest.to_owned(),
+                    line: line_no,
+                });
+            }
+            _ => {}
+        }
+    }
+    Ok(out)
+}
+
+fn parse_number(word: &str) -> std::result::Result<f64, String> {
+    let x: f64 = word
+        .parse()
+        .map_err(|_| format!("`{word}` is not a number"))?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("`{word}` is not a finite number"))
+    }
+}
+
+fn parse_vertex(words: Vec<&str>) -> std::result::Result<DVec3, String> {
+    if words.len() < 3 {
+        return Err(format!(
+            "a vertex needs 3 coordinates, this one has {}",
+            words.len()
+        ));
+    }
+    let x = parse_number(words[0])?;
+    let y = parse_number(words[1])?;
+    let z = parse_number(words[2])?;
+    let p = DVec3::new(x, y, z);
+    // Exactly four numbers: the fourth is the homogeneous weight w. Six or
+    // seven are vertex colours, which vkrad ignores.
+    if words.len() == 4 {
+        let w = parse_number(words[3])?;
+        if w == 0.0 {
+            return Err("vertex weight w is 0".into());
+        }
+        let q = p / w;
+        if !q.is_finite() {
+            return Err("vertex divided by its weight w is not finite".into());
+        }
+        return Ok(q);
+    }
+    Ok(p)
+}
+
+/// Resolves one face vertex reference (`v`, `v/vt`, `v/vt/vn`, `v//vn`)
+/// against the `count` vertices defined so far.
+fn resolve_index(word: &str, count: usize) -> std::result::Result<usize, String> {
+    let v = word.split('/').next().unwrap_or(word);
+    let i: i64 = v
+        .parse()
+        .map_err(|_| format!("`{word}` is not a vertex index"))?;
+    let defined = if count == 1 {
+        "1 vertex is defined above this line".to_owned()
+    } else {
+        format!("{count} vertices are defined above this line")
+    };
+    if i == 0 {
+        return Err("vertex index 0 is invalid (OBJ indices start at 1)".into());
+    }
+    let resolved = if i > 0 {
+        i - 1
+    } else {
+        (count as i64).saturating_add(i)
+    };
+    if resolved < 0 || resolved >= count as i64 {
+        return Err(format!("vertex index {i} is out of range: {defined}"));
+    }
+    Ok(resolved as usize)
+}
+
+fn parse_camera(words: Vec<&str>) -> std::result::Result<Camera, String> {
+    let mut eye = None;
+    let mut look_at = None;
+    let mut up = None;
+    let mut fov = None;
+    let mut k = 0;
+    let vec3 = |k: usize, key: &str| -> std::result::Result<DVec3, String> {
+        if words.len() < k + 3 {
+            return Err(format!("camera `{key}` needs 3 numbers"));
+        }
+        let c = words[k..k + 3]
+            .iter()
+            .map(|w| parse_number(w).map_err(|e| format!("camera `{key}`: {e}")))
+            .collect::<std::result::Result<Vec<_>, _>>()?;
+        Ok(DVec3::new(c[0], c[1], c[2]))
+    };
+    while k < words.len() {
+        let key = words[k];
+        let slot = match key {
+            "eye" => &mut eye,
+            "look_at" => &mut look_at,
+            "up" => &mut up,
+            "fov" => {
+                let Some(w) = words.get(k + 1) else {
+                    return Err("camera `fov` needs a number".into());
+                };
+                if fov.is_some() {
+                    return Err("camera `fov` given twice".into());
+                }
+                fov = Some(parse_number(w).map_err(|e| format!("camera `fov`: {e}"))?);
+                k += 2;
+                continue;
+            }
+            other => return Err(format!("unknown camera field `{other}`")),
+        };
+        if slot.is_some() {
+            return Err(format!("camera `{key}` given twice"));
+        }
+        *slot = Some(vec3(k + 1, key)?);
+        k += 4;
+    }
+    let missing = |what: &str| format!("camera comment lacks `{what}`");
+    let eye = eye.ok_or_else(|| missing("eye"))?;
+    let look_at = look_at.ok_or_else(|| missing("look_at"))?;
+    let up = up.ok_or_else(|| missing("up"))?;
+    let fov = fov.ok_or_else(|| missing("fov"))?;
+    let dir = look_at - eye;
+    if dir.length() == 0.0 {
+        return Err("camera `eye` and `look_at` are the same point".into());
+    }
+    if up.length() == 0.0 || dir.normalize().cross(up.normalize()).length() < 1e-6 {
+        return Err("camera `up` is zero or parallel to the viewing direction".into());
+    }
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!(
+            "camera `fov` {fov} is not between 0 and 180 degrees"
+        ));
+    }
+    Ok(Camera {
+        eye: eye.as_vec3(),
+        look_at: look_at.as_vec3(),
+        up: up.as_vec3(),
+        fov_y_deg: fov as f32,
+    })
+}
