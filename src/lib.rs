@@ -4,12 +4,14 @@
 //! refinement, form factors from `formfactor` and passes in `gpu`) -> `output`.
 //! Pure CPU modules never touch the Vulkan layer; `unsafe` lives only in `gpu`.
 
+pub mod app;
 pub mod error;
 pub mod formfactor;
 pub mod gpu;
 pub mod mesh;
 pub mod output;
 pub mod projection;
+pub mod render;
 pub mod scene;
 pub mod solve;
 

@@ -1,1 +1,395 @@
-fn main() {}
+//! `vkrad`: the command line. Parsing and printing only; the work is in the
+//! library (`vkrad::app`).
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use glam::Vec3;
+
+use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
+use vkrad::gpu::{self, Device, DeviceOptions};
+use vkrad::solve::{patch_form_factors, SolveSettings};
+
+#[derive(Parser)]
+#[command(
+    name = "vkrad",
+    version,
+    about = "Progressive-refinement radiosity on Vulkan: GPU hemicube form factors, compute-shader shooting.",
+    long_about = "Progressive-refinement radiosity on Vulkan.\n\n\
+        `vkrad SCENE` loads an OBJ scene (MTL Kd = diffuse reflectance, Ke = emitted radiance), \
+        meshes it, solves it with GPU hemicubes and compute-shader shooting, and writes SCENE.png. \
+        SCENE is a path or a built-in scene name (cornell, simple).\n\n\
+        Pixels and exported radiance are L = B / pi, so a converged diffuse path tracer with \
+        emitter radiance Ke gives the same numbers.",
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    render: RenderArgs,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the Vulkan devices and which one vkrad would pick.
+    Devices,
+    /// Print the patch-to-patch form-factor matrix (input polygons, file order).
+    Formfactors(FormFactorArgs),
+}
+
+#[derive(Args)]
+struct DeviceArgs {
+    /// Vulkan device: an index or a name substring from `vkrad devices`
+    /// (default: the first discrete GPU, else integrated, else CPU).
+    #[arg(long, value_name = "INDEX|NAME")]
+    device: Option<String>,
+    /// Enable the Khronos validation layer; any validation error fails the run.
+    #[arg(long)]
+    validate: bool,
+}
+
+#[derive(Args)]
+struct MeshArgs {
+    /// Maximum element edge length, in scene units (default: scene diagonal / 24).
+    #[arg(long, value_name = "LENGTH")]
+    max_edge: Option<f32>,
+    /// Hemicube top-face resolution in pixels (even, 2..8192).
+    #[arg(long, default_value_t = 256, value_name = "PIXELS")]
+    hemicube_res: u32,
+}
+
+#[derive(Args)]
+struct RenderArgs {
+    /// Scene: a path to an .obj file, or a built-in name (cornell, simple).
+    #[arg(required = true)]
+    scene: Option<String>,
+    /// Output image: .png (tone-mapped sRGB), .hdr or .exr (linear radiance).
+    /// Default: SCENE_NAME.png in the current folder.
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+    /// Also write the lit mesh: .ply (x y z, red green blue, radiosity_r/g/b) or .obj.
+    #[arg(long, value_name = "FILE")]
+    export: Option<PathBuf>,
+    #[command(flatten)]
+    mesh: MeshArgs,
+    /// Stop when unshot power < this fraction of the emitted power.
+    #[arg(long, default_value_t = 1e-3, value_name = "FRACTION")]
+    converge: f64,
+    /// Stop after this many shots at the latest.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    max_shots: usize,
+    /// Camera position (with --look-at; default: the scene's camera or an automatic one).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    look_at: Option<Vec3>,
+    /// Camera up direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    up: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEGREES")]
+    fov: Option<f32>,
+    /// Image size.
+    #[arg(long, default_value = "800x800", value_name = "WxH", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
+    #[arg(long)]
+    exposure: Option<f32>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+    #[command(flatten)]
+    gpu: DeviceArgs,
+}
+
+#[derive(Args)]
+struct FormFactorArgs {
+    /// Scene: a path to an .obj file, or a built-in name.
+    scene: String,
+    /// Print JSON (patch names, areas and the matrix) instead of a table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    mesh: MeshArgs,
+    #[command(flatten)]
+    gpu: DeviceArgs,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected three numbers like 1,2.5,-3, got {s:?}"))?;
+    match parts[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!(
+            "expected three finite numbers like 1,2.5,-3, got {s:?}"
+        )),
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT like 800x600, got {s:?}"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in {s:?}"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s:?} out of range (1..16384 per side)"));
+    }
+    Ok((w, h))
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Some(Command::Devices) => devices(),
+        Some(Command::Formfactors(args)) => formfactors(args),
+        None => render(cli.render),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn devices() -> Result<()> {
+    let devices = gpu::list_devices()?;
+    if devices.is_empty() {
+        bail!("the Vulkan loader found no device\n  hint: install lavapipe: apt-get install mesa-vulkan-drivers");
+    }
+    let chosen = Device::new(&DeviceOptions::default()).ok();
+    for d in devices {
+        let mark = match &chosen {
+            Some(c) if c.info.index == d.index => "*",
+            _ => " ",
+        };
+        let usable = match &d.usable {
+            Ok(()) => String::new(),
+            Err(why) => format!("  (unusable: {why})"),
+        };
+        println!(
+            "{mark} [{}] {} — {}, Vulkan {}, {}{usable}",
+            d.index, d.name, d.kind, d.api_version, d.driver
+        );
+    }
+    println!("(* = picked by default; choose with --device INDEX or --device NAME)");
+    Ok(())
+}
+
+fn render(args: RenderArgs) -> Result<()> {
+    let scene = args.scene.clone().context("a scene is required")?;
+    let mut job = RenderJob::new(scene);
+    job.output = args.output.clone();
+    job.export = args.export.clone();
+    job.device = DeviceOptions {
+        selector: args.gpu.device.clone(),
+        validate: args.gpu.validate,
+    };
+    job.max_edge = args.mesh.max_edge;
+    job.solve = SolveSettings {
+        hemicube_res: args.mesh.hemicube_res,
+        converge: args.converge,
+        max_shots: args.max_shots,
+    };
+    job.camera = CameraOverride {
+        eye: args.eye,
+        look_at: args.look_at,
+        up: args.up,
+        fov_y_deg: args.fov,
+    };
+    job.size = args.size;
+    job.exposure = args.exposure;
+
+    let show_progress = !args.quiet && std::io::stderr().is_terminal();
+    let mut last = Instant::now();
+    let report = run_render(&job, None, |p| {
+        if show_progress && last.elapsed() > Duration::from_millis(250) {
+            last = Instant::now();
+            eprint!("\r  shot {:>6}  residual {:.3e}   ", p.shots, p.residual);
+        }
+        true
+    })?;
+    if show_progress {
+        eprint!("\r{:60}\r", "");
+    }
+    if !args.quiet {
+        print_summary(&report);
+    }
+    Ok(())
+}
+
+fn print_summary(r: &RenderReport) {
+    let s = &r.solution;
+    let emitters = r
+        .scene
+        .patches
+        .iter()
+        .filter(|p| r.scene.material_of(p).is_emitter())
+        .count();
+    println!("vkrad {}", env!("CARGO_PKG_VERSION"));
+    println!("  device    {} ({})", r.device, r.device_kind);
+    println!(
+        "  scene     {} — {} patches ({} emitting), {} materials",
+        r.scene.source.display(),
+        r.scene.patches.len(),
+        emitters,
+        r.scene.materials.len()
+    );
+    for w in &r.scene.warnings {
+        println!("  warning   {w}");
+    }
+    println!(
+        "  mesh      {} elements, {} vertices (max edge {:.4})",
+        r.mesh.elements.len(),
+        r.mesh.vertices.len(),
+        r.max_edge
+    );
+    println!(
+        "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
+        s.shots,
+        s.residual,
+        if s.converged {
+            " (converged)"
+        } else {
+            " (NOT converged: raise --max-shots)"
+        }
+    );
+    let stages: Vec<String> = r
+        .wall
+        .iter()
+        .map(|(name, secs)| format!("{name} {secs:.2}s"))
+        .collect();
+    println!("  wall      {}", stages.join(", "));
+    let total = r.gpu_times.total().as_secs_f64().max(1e-12);
+    let source = if r.gpu_times.gpu {
+        "GPU timestamps"
+    } else {
+        "CPU timers"
+    };
+    println!("  passes    ({source})");
+    for (stage, (count, time)) in &r.gpu_times.stages {
+        let t = time.as_secs_f64();
+        println!(
+            "    {stage:<22} {count:>7} x  {:>9.3} ms mean  {:>8.3} s total  {:>5.1}%",
+            1e3 * t / *count as f64,
+            t,
+            100.0 * t / total
+        );
+    }
+    if s.shots > 0 {
+        println!(
+            "  speed     {:.1} shots/s",
+            s.shots as f64
+                / r.wall
+                    .iter()
+                    .find(|(n, _)| *n == "solve")
+                    .map_or(1.0, |w| w.1)
+        );
+    }
+    println!(
+        "  wrote     {} ({}x{})",
+        r.output.display(),
+        r.image.width,
+        r.image.height
+    );
+    if let Some(e) = &r.export {
+        println!("  wrote     {}", e.display());
+    }
+}
+
+fn formfactors(args: FormFactorArgs) -> Result<()> {
+    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let max_edge = args
+        .mesh
+        .max_edge
+        .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene));
+    let mesh = vkrad::mesh::uniform(&scene, max_edge);
+    let device = Device::new(&DeviceOptions {
+        selector: args.gpu.device.clone(),
+        validate: args.gpu.validate,
+    })?;
+    let show_progress = std::io::stderr().is_terminal();
+    let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, |done, n| {
+        if show_progress {
+            eprint!("\r  patch {done}/{n}   ");
+        }
+    })?;
+    if show_progress {
+        eprint!("\r{:40}\r", "");
+    }
+    device.check_validation()?;
+    let names: Vec<String> = scene
+        .patches
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if p.name.is_empty() {
+                format!("patch{i}")
+            } else {
+                p.name.clone()
+            }
+        })
+        .collect();
+    if args.json {
+        let patches: Vec<_> = scene
+            .patches
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                serde_json::json!({
+                    "id": i,
+                    "name": names[i],
+                    "line": p.line,
+                    "area": p.area,
+                    "row_sum": ff.matrix[i].iter().sum::<f64>(),
+                })
+            })
+            .collect();
+        let doc = serde_json::json!({
+            "scene": scene.source.display().to_string(),
+            "method": "hemicube",
+            "hemicube_res": args.mesh.hemicube_res,
+            "max_edge": max_edge,
+            "elements": mesh.elements.len(),
+            "definition": "F[i][j]: fraction of the power leaving patch i (uniform, diffuse) that arrives at patch j; average over patch i (thesis eq. 2.7)",
+            "patches": patches,
+            "form_factors": ff.matrix,
+        });
+        println!("{}", serde_json::to_string_pretty(&doc)?);
+    } else {
+        println!(
+            "form factors F[i][j] by hemicube ({}px, {} elements); rows: from patch i",
+            args.mesh.hemicube_res,
+            mesh.elements.len()
+        );
+        for (i, row) in ff.matrix.iter().enumerate() {
+            let cells: Vec<String> = row.iter().map(|f| format!("{f:.5}")).collect();
+            println!(
+                "{i:>3} {:<12} A={:<10.4} sum={:.5}  {}",
+                names[i],
+                scene.patches[i].area,
+                row.iter().sum::<f64>(),
+                cells.join(" ")
+            );
+        }
+    }
+    Ok(())
+}

@@ -289,10 +289,31 @@ unsafe extern "system" fn debug_callback(
     vk::FALSE
 }
 
+/// Image formats the passes use, with the features they need.
+const REQUIRED_FORMATS: [(vk::Format, vk::FormatFeatureFlags, &str); 3] = [
+    (
+        vk::Format::R32_UINT,
+        vk::FormatFeatureFlags::from_raw(
+            vk::FormatFeatureFlags::COLOR_ATTACHMENT.as_raw()
+                | vk::FormatFeatureFlags::STORAGE_IMAGE.as_raw(),
+        ),
+        "the hemicube item buffer",
+    ),
+    (
+        vk::Format::D32_SFLOAT,
+        vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT,
+        "depth buffers",
+    ),
+    (
+        vk::Format::R32G32B32A32_SFLOAT,
+        vk::FormatFeatureFlags::COLOR_ATTACHMENT,
+        "the final image",
+    ),
+];
+
 /// The logical device, its queue and its memory allocator.
 pub struct Device {
     pub(crate) instance: Arc<Instance>,
-    pub(crate) physical: vk::PhysicalDevice,
     pub(crate) raw: ash::Device,
     pub(crate) queue: vk::Queue,
     pub(crate) queue_family: u32,
@@ -354,6 +375,20 @@ impl Device {
                 what: "needs the Vulkan 1.3 features dynamicRendering and synchronization2".into(),
             });
         }
+        for (format, needed, what) in REQUIRED_FORMATS {
+            // SAFETY: physical comes from this instance.
+            let props = unsafe {
+                instance
+                    .raw
+                    .get_physical_device_format_properties(physical, format)
+            };
+            if !props.optimal_tiling_features.contains(needed) {
+                return Err(Error::Unsupported {
+                    device: info.name.clone(),
+                    what: format!("format {format:?} lacks {needed:?} (needed for {what})"),
+                });
+            }
+        }
         let mut enable13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
@@ -392,7 +427,6 @@ impl Device {
             .map(|_| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
         Ok(Arc::new(Device {
             instance,
-            physical,
             raw,
             queue,
             queue_family,

@@ -1,0 +1,210 @@
+//! The main job as a library call: load, mesh, solve, render, write. The
+//! CLI (`main.rs`) parses arguments into a [`RenderJob`] and prints the
+//! [`RenderReport`]; tests call [`run_render`] directly.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::error::{Error, Result};
+use crate::gpu::{Device, DeviceOptions, StageTimes};
+use crate::mesh::{self, Mesh};
+use crate::output::image_io::{save_image, HdrImage};
+use crate::output::mesh_export::export_mesh;
+use crate::output::tonemap::auto_exposure;
+use crate::render::{default_camera, render_image, vertex_radiance};
+use crate::scene::{self, Camera, Scene};
+use crate::solve::{solve, Progress, Solution, SolveSettings};
+
+/// Everything `vkrad SCENE` can be asked to do.
+#[derive(Debug, Clone)]
+pub struct RenderJob {
+    /// A path to an OBJ file or the name of a built-in scene.
+    pub scene: String,
+    /// The image to write (`.png`, `.hdr`, `.exr`); `None`: `NAME.png` here.
+    pub output: Option<PathBuf>,
+    /// The lit mesh to write (`.ply`, `.obj`).
+    pub export: Option<PathBuf>,
+    pub device: DeviceOptions,
+    /// Maximum element edge; `None`: relative to the scene's size.
+    pub max_edge: Option<f32>,
+    pub solve: SolveSettings,
+    /// Camera fields to override on the scene's own (or automatic) camera.
+    pub camera: CameraOverride,
+    pub size: (u32, u32),
+    /// Exposure for PNG and PLY colours; `None`: automatic.
+    pub exposure: Option<f32>,
+}
+
+impl RenderJob {
+    pub fn new(scene: impl Into<String>) -> Self {
+        RenderJob {
+            scene: scene.into(),
+            output: None,
+            export: None,
+            device: DeviceOptions::default(),
+            max_edge: None,
+            solve: SolveSettings::default(),
+            camera: CameraOverride::default(),
+            size: (800, 800),
+            exposure: None,
+        }
+    }
+}
+
+/// Camera fields given on the command line; the rest come from the scene's
+/// own camera or the automatic framing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct CameraOverride {
+    pub eye: Option<glam::Vec3>,
+    pub look_at: Option<glam::Vec3>,
+    pub up: Option<glam::Vec3>,
+    pub fov_y_deg: Option<f32>,
+}
+
+impl CameraOverride {
+    pub fn apply(&self, base: Camera) -> Camera {
+        Camera {
+            eye: self.eye.unwrap_or(base.eye),
+            look_at: self.look_at.unwrap_or(base.look_at),
+            up: self.up.unwrap_or(base.up),
+            fov_y_deg: self.fov_y_deg.unwrap_or(base.fov_y_deg),
+        }
+    }
+}
+
+/// What a run did, for the summary and for tests.
+pub struct RenderReport {
+    pub device: String,
+    pub device_kind: &'static str,
+    pub scene: Scene,
+    pub mesh: Mesh,
+    pub max_edge: f32,
+    pub solution: Solution,
+    pub image: HdrImage,
+    pub output: PathBuf,
+    pub export: Option<PathBuf>,
+    /// Wall time per stage: load, mesh, solve, render, write.
+    pub wall: Vec<(&'static str, f64)>,
+    /// GPU time per pass (timestamps) across solve and render.
+    pub gpu_times: StageTimes,
+}
+
+const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
+const MESH_EXTENSIONS: &[&str] = &["ply", "obj"];
+
+/// Rejects an output path before any long work: unknown extension or a
+/// folder that does not exist.
+pub fn check_output_path(path: &Path, allowed: &[&str]) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if !allowed.contains(&ext.as_str()) {
+        return Err(Error::Output {
+            path: path.to_owned(),
+            what: format!(
+                "unknown file type {ext:?}; use one of: {}",
+                allowed
+                    .iter()
+                    .map(|e| format!(".{e}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        });
+    }
+    let parent = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !parent.is_dir() {
+        return Err(Error::Output {
+            path: path.to_owned(),
+            what: format!("the folder {} does not exist", parent.display()),
+        });
+    }
+    Ok(())
+}
+
+/// Runs the whole job. `on_progress` sees every shot and may return false
+/// to stop early (the best solution so far is still rendered and written).
+pub fn run_render(
+    job: &RenderJob,
+    device: Option<Arc<Device>>,
+    on_progress: impl FnMut(&Progress) -> bool,
+) -> Result<RenderReport> {
+    let mut wall = Vec::new();
+    let t = Instant::now();
+    let scene = scene::load_scene_arg(&job.scene)?;
+    let output = job
+        .output
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{}.png", scene.name)));
+    check_output_path(&output, IMAGE_EXTENSIONS)?;
+    if let Some(export) = &job.export {
+        check_output_path(export, MESH_EXTENSIONS)?;
+    }
+    let camera = job.camera.apply(default_camera(&scene));
+    wall.push(("load", t.elapsed().as_secs_f64()));
+
+    let t = Instant::now();
+    let max_edge = job
+        .max_edge
+        .unwrap_or_else(|| mesh::default_max_edge(&scene));
+    if !(max_edge.is_finite() && max_edge > 0.0) {
+        return Err(Error::Invalid(format!(
+            "--max-edge must be a positive length, got {max_edge}"
+        )));
+    }
+    let mesh = mesh::uniform(&scene, max_edge);
+    mesh.sanity_check(&scene)
+        .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
+    wall.push(("mesh", t.elapsed().as_secs_f64()));
+
+    let device = match device {
+        Some(d) => d,
+        None => Device::new(&job.device)?,
+    };
+    let t = Instant::now();
+    let solution = solve(&device, &scene, &mesh, &job.solve, on_progress)?;
+    wall.push(("solve", t.elapsed().as_secs_f64()));
+
+    let t = Instant::now();
+    let mut gpu_times = solution.times.clone();
+    let radiance = vertex_radiance(&mesh, &solution.radiosity);
+    let image = render_image(
+        &device,
+        &scene,
+        &mesh,
+        &radiance,
+        &camera,
+        job.size,
+        &mut gpu_times,
+    )?;
+    wall.push(("render", t.elapsed().as_secs_f64()));
+
+    let t = Instant::now();
+    let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
+    save_image(&image, &output, Some(exposure))?;
+    if let Some(export) = &job.export {
+        let vertex_radiosity = mesh.vertex_values(&solution.radiosity);
+        export_mesh(export, &mesh, &vertex_radiosity, exposure)?;
+    }
+    wall.push(("write", t.elapsed().as_secs_f64()));
+    device.check_validation()?;
+
+    Ok(RenderReport {
+        device: device.info.name.clone(),
+        device_kind: device.info.kind,
+        scene,
+        mesh,
+        max_edge,
+        solution,
+        image,
+        output,
+        export: job.export.clone(),
+        wall,
+        gpu_times,
+    })
+}

@@ -1,0 +1,190 @@
+//! The `vkrad` binary end to end: good runs write whole files; bad input
+//! ends with a clear message (file and line where there is one), a non-zero
+//! exit, no panic and no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn vkrad(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_vkrad"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run vkrad")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vkrad-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs vkrad on `obj` (and `mtl` as `scene.mtl`), expects failure with all
+/// of `needles` in the message, and no image left behind.
+fn expect_failure(name: &str, obj: &str, mtl: Option<&str>, needles: &[&str]) {
+    let dir = temp_dir(name);
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    if let Some(mtl) = mtl {
+        std::fs::write(dir.join("scene.mtl"), mtl).unwrap();
+    }
+    let out = vkrad(&["scene.obj", "-o", "out.png"], &dir);
+    let err = stderr(&out);
+    assert!(
+        !out.status.success(),
+        "{name}: expected failure, got success"
+    );
+    assert!(!err.contains("panicked"), "{name}: panicked:\n{err}");
+    for n in needles {
+        assert!(err.contains(n), "{name}: message lacks {n:?}:\n{err}");
+    }
+    assert!(!dir.join("out.png").exists(), "{name}: left an output file");
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != "scene.obj" && n != "scene.mtl")
+        .collect();
+    assert!(leftovers.is_empty(), "{name}: left files {leftovers:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+const MTL: &str = "newmtl white\nKd 0.5 0.5 0.5\nnewmtl light\nKd 0.5 0.5 0.5\nKe 5 5 5\n";
+const GOOD_OBJ: &str = "mtllib scene.mtl\n\
+v 0 0 0\nv 0 0 1\nv 1 0 1\nv 1 0 0\n\
+v 0 1 0\nv 1 1 0\nv 1 1 1\nv 0 1 1\n\
+usemtl white\nf 1 2 3 4\nusemtl light\nf 5 6 7 8\n";
+
+#[test]
+fn missing_file() {
+    let dir = temp_dir("missing");
+    let out = vkrad(&["no/such/scene.obj"], &dir);
+    let err = stderr(&out);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("scene.obj") && !err.contains("panicked"),
+        "{err}"
+    );
+}
+
+#[test]
+fn malformed_vertex_names_its_line() {
+    let obj = GOOD_OBJ.replace("v 1 0 1\n", "v 1 0\n");
+    expect_failure("malformed", &obj, Some(MTL), &["scene.obj:4"]);
+}
+
+#[test]
+fn nan_vertex_names_its_line() {
+    let obj = GOOD_OBJ.replace("v 0 1 0\n", "v nan 1 0\n");
+    expect_failure("nan", &obj, Some(MTL), &["scene.obj:6"]);
+}
+
+#[test]
+fn index_out_of_range_names_its_line() {
+    let obj = GOOD_OBJ.replace("f 5 6 7 8", "f 5 6 7 99");
+    expect_failure("index", &obj, Some(MTL), &["scene.obj:13"]);
+}
+
+#[test]
+fn missing_mtl_is_named() {
+    expect_failure("nomtl", GOOD_OBJ, None, &["scene.mtl"]);
+}
+
+#[test]
+fn no_emitter_is_an_error_with_a_hint() {
+    let mtl = MTL.replace("Ke 5 5 5", "");
+    expect_failure("noemitter", GOOD_OBJ, Some(&mtl), &["emitter", "Ke"]);
+}
+
+#[test]
+fn degenerate_face_names_its_line() {
+    let obj = GOOD_OBJ.replace("f 1 2 3 4", "f 1 1 1");
+    expect_failure("degenerate", &obj, Some(MTL), &["scene.obj:11"]);
+}
+
+#[test]
+fn unwritable_output_leaves_nothing() {
+    let dir = temp_dir("unwritable");
+    std::fs::write(dir.join("scene.obj"), GOOD_OBJ).unwrap();
+    std::fs::write(dir.join("scene.mtl"), MTL).unwrap();
+    for target in ["missing-folder/out.png", "scene.obj/out.png", "out.bmp"] {
+        let out = vkrad(&["scene.obj", "-o", target], &dir);
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{target}: expected failure");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(err.contains("out."), "{target}: {err}");
+    }
+    assert!(!dir.join("out.bmp").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn renders_and_exports_a_small_scene() {
+    let dir = temp_dir("render");
+    let out = vkrad(
+        &[
+            "simple",
+            "-o",
+            "simple.hdr",
+            "--export",
+            "simple.ply",
+            "--size",
+            "64x48",
+            "--hemicube-res",
+            "32",
+            "--validate",
+        ],
+        &dir,
+    );
+    let err = stderr(&out);
+    assert!(out.status.success(), "vkrad failed:\n{err}");
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        summary.contains("shots") && summary.contains("residual"),
+        "{summary}"
+    );
+    let hdr = image::open(dir.join("simple.hdr")).unwrap();
+    assert_eq!((hdr.width(), hdr.height()), (64, 48));
+    let ply = std::fs::read_to_string(dir.join("simple.ply")).unwrap();
+    assert!(ply.starts_with("ply\n"));
+    assert!(ply.contains("property float radiosity_r"));
+    assert!(ply.contains("property list uchar int vertex_indices"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn formfactors_json_is_a_square_matrix() {
+    let dir = temp_dir("ff");
+    let out = vkrad(
+        &[
+            "formfactors",
+            "simple",
+            "--json",
+            "--hemicube-res",
+            "32",
+            "--validate",
+        ],
+        &dir,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let m = doc["form_factors"].as_array().unwrap();
+    let n = doc["patches"].as_array().unwrap().len();
+    assert_eq!(m.len(), n);
+    for row in m {
+        let row = row.as_array().unwrap();
+        assert_eq!(row.len(), n);
+        let sum: f64 = row.iter().map(|f| f.as_f64().unwrap()).sum();
+        assert!((0.0..=1.0 + 1e-6).contains(&sum), "row sum {sum}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn devices_lists_at_least_one() {
+    let out = vkrad(&["devices"], &std::env::temp_dir());
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("[0]"));
+}

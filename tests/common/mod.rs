@@ -1,0 +1,105 @@
+//! Shared test helpers: a validated device and hand-built scenes.
+#![allow(dead_code)]
+
+use std::sync::Arc;
+
+use glam::Vec3;
+use vkrad::gpu::{Device, DeviceOptions};
+use vkrad::scene::{Material, Patch, Scene};
+
+/// A device with the Khronos validation layer on. CI sets
+/// VKRAD_REQUIRE_VALIDATION=1 so a missing layer fails instead of skipping.
+pub fn device() -> Arc<Device> {
+    let device = Device::new(&DeviceOptions {
+        selector: std::env::var("VKRAD_TEST_DEVICE").ok(),
+        validate: true,
+    })
+    .expect("a Vulkan device (install mesa-vulkan-drivers for lavapipe)");
+    if std::env::var_os("VKRAD_REQUIRE_VALIDATION").is_some() {
+        assert!(
+            device.validation_enabled(),
+            "VKRAD_REQUIRE_VALIDATION is set but the validation layer is missing (apt-get install vulkan-validationlayers)"
+        );
+    }
+    device
+}
+
+/// Fails the test on any validation error reported so far.
+pub fn assert_validation_clean(device: &Device) {
+    let errors = device.validation_errors();
+    assert!(errors.is_empty(), "validation errors: {errors:#?}");
+}
+
+/// A planar polygon patch; vertices counter-clockwise seen from the front.
+pub fn polygon(vertices: &[Vec3], material: usize) -> Patch {
+    let mut n = Vec3::ZERO;
+    for i in 0..vertices.len() {
+        n += vertices[i].cross(vertices[(i + 1) % vertices.len()]);
+    }
+    Patch {
+        vertices: vertices.to_vec(),
+        normal: n.normalize(),
+        area: n.length() * 0.5,
+        material,
+        name: String::new(),
+        line: 0,
+    }
+}
+
+pub fn material(reflectance: f32, emission: f32) -> Material {
+    Material {
+        name: format!("rho{reflectance}_e{emission}"),
+        reflectance: Vec3::splat(reflectance),
+        emission: Vec3::splat(emission),
+    }
+}
+
+pub fn scene(patches: Vec<Patch>, materials: Vec<Material>) -> Scene {
+    Scene {
+        name: "test".into(),
+        source: "test".into(),
+        patches,
+        materials,
+        camera: None,
+        warnings: vec![],
+    }
+}
+
+/// Unit square at height y, facing up (+y) or down.
+pub fn horizontal_square(y: f32, up: bool, material: usize) -> Patch {
+    let mut v = vec![
+        Vec3::new(0.0, y, 0.0),
+        Vec3::new(0.0, y, 1.0),
+        Vec3::new(1.0, y, 1.0),
+        Vec3::new(1.0, y, 0.0),
+    ];
+    if !up {
+        v.reverse();
+    }
+    polygon(&v, material)
+}
+
+/// The six inward-facing faces of an axis-aligned cube [0, s]^3; face 0 is
+/// the floor (y = 0), which gets `floor_material`, the others `material`.
+pub fn closed_cube(s: f32, floor_material: usize, material: usize) -> Vec<Patch> {
+    let p = |x: f32, y: f32, z: f32| Vec3::new(x * s, y * s, z * s);
+    let faces = [
+        // floor, facing +y
+        [p(0., 0., 0.), p(0., 0., 1.), p(1., 0., 1.), p(1., 0., 0.)],
+        // ceiling, facing -y
+        [p(0., 1., 0.), p(1., 1., 0.), p(1., 1., 1.), p(0., 1., 1.)],
+        // x = 0 wall, facing +x
+        [p(0., 0., 0.), p(0., 1., 0.), p(0., 1., 1.), p(0., 0., 1.)],
+        // x = s wall, facing -x
+        [p(1., 0., 0.), p(1., 0., 1.), p(1., 1., 1.), p(1., 1., 0.)],
+        // z = 0 wall, facing +z
+        [p(0., 0., 0.), p(1., 0., 0.), p(1., 1., 0.), p(0., 1., 0.)],
+        // z = s wall, facing -z
+        [p(0., 0., 1.), p(0., 1., 1.), p(1., 1., 1.), p(1., 0., 1.)],
+    ];
+    faces
+        .iter()
+        .enumerate()
+        .map(|(i, f)| polygon(f, if i == 0 { floor_material } else { material }))
+        .collect()
+}

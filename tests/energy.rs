@@ -1,0 +1,98 @@
+//! Progressive refinement conserves energy, converges monotonically, and in
+//! a closed room of uniform reflectance reaches the energy balance
+//! E_avg = Phi / (A (1 - rho)) (mean irradiance).
+
+mod common;
+
+use common::*;
+use vkrad::solve::{solve, SolveSettings};
+
+struct Balance {
+    mean_irradiance: f64,
+    expected: f64,
+    shot_power: f64,
+    received_power: f64,
+    history: Vec<f64>,
+    converged: bool,
+}
+
+fn closed_room(rho: f32) -> Balance {
+    let device = device();
+    // Floor emits (radiance 1); every face reflects rho.
+    let s = scene(
+        closed_cube(2.0, 1, 0),
+        vec![material(rho, 0.0), material(rho, 1.0)],
+    );
+    let mesh = vkrad::mesh::uniform(&s, 0.5);
+    let settings = SolveSettings {
+        hemicube_res: 64,
+        converge: 1e-5,
+        max_shots: 20_000,
+    };
+    let sol = solve(&device, &s, &mesh, &settings, |_| true).unwrap();
+    assert_validation_clean(&device);
+
+    let pi = std::f64::consts::PI;
+    let emitted_radiosity = pi; // E = pi * L_e on the floor
+    let total_area: f64 = mesh.elements.iter().map(|e| e.area as f64).sum();
+    let floor_area = s.patches[0].area as f64;
+    let phi = emitted_radiosity * floor_area;
+    let mut received = 0.0;
+    for (e, b) in mesh.elements.iter().zip(&sol.radiosity) {
+        let emission = if e.patch == 0 { emitted_radiosity } else { 0.0 };
+        let b = (b[0] as f64 + b[1] as f64 + b[2] as f64) / 3.0;
+        // Irradiance H = (B - E) / rho.
+        received += (b - emission) / rho as f64 * e.area as f64;
+    }
+    Balance {
+        mean_irradiance: received / total_area,
+        expected: phi / (total_area * (1.0 - rho as f64)),
+        // What left the shooters: everything emitted or reflected (rho of
+        // what was received), minus what is still unshot.
+        shot_power: phi + rho as f64 * received - sol.residual * sol.emitted_power,
+        received_power: received,
+        history: sol.residual_history,
+        converged: sol.converged,
+    }
+}
+
+fn check(rho: f32) {
+    let b = closed_room(rho);
+    assert!(b.converged, "did not converge");
+    let rel = (b.mean_irradiance - b.expected).abs() / b.expected;
+    eprintln!(
+        "rho {rho}: mean irradiance {:.5} expected {:.5} ({:.3}%), {} shots",
+        b.mean_irradiance,
+        b.expected,
+        100.0 * rel,
+        b.history.len() - 1
+    );
+    assert!(rel < 0.01, "energy balance off by {:.3}%", 100.0 * rel);
+    // Closed room: all power shot is received.
+    let conservation = (b.shot_power - b.received_power).abs() / b.received_power;
+    assert!(
+        conservation < 1e-3,
+        "shot {} vs received {}",
+        b.shot_power,
+        b.received_power
+    );
+    // Monotone: unshot power never grows.
+    for w in b.history.windows(2) {
+        assert!(
+            w[1] <= w[0] * (1.0 + 1e-6),
+            "unshot power grew: {} -> {}",
+            w[0],
+            w[1]
+        );
+    }
+}
+
+#[test]
+fn closed_room_energy_balance_rho_0_5() {
+    check(0.5);
+}
+
+#[test]
+fn closed_room_energy_balance_rho_0_8() {
+    check(0.8);
+}
