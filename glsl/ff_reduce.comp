@@ -3,24 +3,48 @@
 // Sums delta form factors per element: each item-buffer pixel adds its
 // precomputed fixed-point weight to the element it shows. Integer atomics
 // make the sum exact and independent of execution order.
+//
+// Neighbouring pixels mostly show the same element, so each invocation walks
+// a run of RUN pixels along a row and issues one atomic per change of
+// element instead of one per pixel (contention on a single address is what
+// makes per-pixel atomics slow).
 
 #include "shot_params.glsl"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = 64) in;
 
 layout(set = 0, binding = 1, r32ui) uniform readonly uimage2D item_buffer;
 layout(set = 0, binding = 2, std430) readonly buffer Weights { uint weight[]; };
 layout(set = 0, binding = 3, std430) buffer FormFactors { uint ff[]; };
 
+const int RUN = 16;
+
+void flush(uint element, uint sum) {
+    if (element != NO_ELEMENT && element < shot.element_count && sum != 0u) {
+        atomicAdd(ff[element], sum);
+    }
+}
+
 void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = imageSize(item_buffer);
-    if (p.x >= size.x || p.y >= size.y) {
+    int runs_per_row = (size.x + RUN - 1) / RUN;
+    int run = int(gl_GlobalInvocationID.x);
+    int y = run / runs_per_row;
+    if (y >= size.y) {
         return;
     }
-    uint element = imageLoad(item_buffer, p).r;
-    if (element == NO_ELEMENT || element >= shot.element_count) {
-        return;
+    int x0 = (run % runs_per_row) * RUN;
+    int x1 = min(x0 + RUN, size.x);
+    uint current = NO_ELEMENT;
+    uint sum = 0u;
+    for (int x = x0; x < x1; ++x) {
+        uint element = imageLoad(item_buffer, ivec2(x, y)).r;
+        if (element != current) {
+            flush(current, sum);
+            current = element;
+            sum = 0u;
+        }
+        sum += weight[y * size.x + x];
     }
-    atomicAdd(ff[element], weight[p.y * size.x + p.x]);
+    flush(current, sum);
 }

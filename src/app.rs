@@ -82,6 +82,8 @@ pub struct RenderReport {
     pub max_edge: f32,
     pub solution: Solution,
     pub image: HdrImage,
+    /// Exposure used for the PNG/PLY colours (given or automatic).
+    pub exposure: f32,
     pub output: PathBuf,
     pub export: Option<PathBuf>,
     /// Wall time per stage: load, mesh, solve, render, write.
@@ -202,6 +204,7 @@ pub fn run_render(
         max_edge,
         solution,
         image,
+        exposure,
         output,
         export: job.export.clone(),
         wall,

@@ -305,10 +305,11 @@ fn print_summary(r: &RenderReport) {
         );
     }
     println!(
-        "  wrote     {} ({}x{})",
+        "  wrote     {} ({}x{}, exposure {:.4})",
         r.output.display(),
         r.image.width,
-        r.image.height
+        r.image.height,
+        r.exposure
     );
     if let Some(e) = &r.export {
         println!("  wrote     {}", e.display());

@@ -57,6 +57,8 @@ pub struct HemicubeInputs<'a> {
 const ITEM_FORMAT: vk::Format = vk::Format::R32_UINT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 const NO_ELEMENT: u32 = u32::MAX;
+/// Pixels per reduction invocation (RUN in glsl/ff_reduce.comp).
+const REDUCE_RUN: u32 = 16;
 
 // Descriptor bindings (glsl/shot_params.glsl, ff_reduce.comp, shoot.comp).
 const B_PARAMS: u32 = 0;
@@ -462,7 +464,9 @@ impl HemicubeEngine {
                 &[self.bindings.set],
                 &[],
             );
-            raw.cmd_dispatch(cmd, w.div_ceil(16), h.div_ceil(16), 1);
+            // One invocation per run of REDUCE_RUN pixels (glsl/ff_reduce.comp).
+            let runs = w.div_ceil(REDUCE_RUN) * h;
+            raw.cmd_dispatch(cmd, runs.div_ceil(64), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "form-factor reduction");
