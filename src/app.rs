@@ -129,6 +129,86 @@ pub fn check_output_path(path: &Path, allowed: &[&str]) -> Result<()> {
     Ok(())
 }
 
+impl RenderReport {
+    /// The run as JSON: settings, results and timings (`--report`).
+    pub fn to_json(&self, job: &RenderJob) -> serde_json::Value {
+        let s = &self.solution;
+        let passes: Vec<_> = self
+            .gpu_times
+            .stages
+            .iter()
+            .map(|(stage, (count, total))| {
+                let total = total.as_secs_f64();
+                serde_json::json!({
+                    "pass": stage,
+                    "count": count,
+                    "total_s": total,
+                    "mean_ms": 1e3 * total / (*count).max(1) as f64,
+                    "share": total / self.gpu_times.total().as_secs_f64().max(1e-12),
+                })
+            })
+            .collect();
+        let wall: serde_json::Map<String, serde_json::Value> = self
+            .wall
+            .iter()
+            .map(|(stage, secs)| (stage.to_string(), serde_json::json!(secs)))
+            .collect();
+        serde_json::json!({
+            "vkrad": env!("CARGO_PKG_VERSION"),
+            "device": { "name": self.device, "kind": self.device_kind },
+            "settings": {
+                "scene": job.scene,
+                "max_edge": self.max_edge,
+                "hemicube_res": job.solve.hemicube_res,
+                "converge": job.solve.converge,
+                "max_shots": job.solve.max_shots,
+                "size": [job.size.0, job.size.1],
+                "exposure": self.exposure,
+            },
+            "scene": {
+                "source": self.scene.source.display().to_string(),
+                "patches": self.scene.patches.len(),
+                "materials": self.scene.materials.len(),
+                "warnings": self.scene.warnings,
+                "emitted_power": s.emitted_power,
+            },
+            "mesh": {
+                "elements": self.mesh.elements.len(),
+                "vertices": self.mesh.vertices.len(),
+                "triangles": self.mesh.triangle_count(),
+            },
+            "solve": {
+                "shots": s.shots,
+                "residual": s.residual,
+                "converged": s.converged,
+                "interrupted": s.interrupted,
+                "wall_s": s.wall_seconds,
+                "shots_per_s": s.shots as f64 / s.wall_seconds.max(1e-12),
+            },
+            "timing": {
+                "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
+                "wall_s": wall,
+                "passes": passes,
+            },
+            "outputs": {
+                "image": self.output.display().to_string(),
+                "mesh": self.export.as_ref().map(|p| p.display().to_string()),
+            },
+        })
+    }
+}
+
+/// Writes `report` (JSON) atomically.
+pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
+    crate::output::write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, report).map_err(|e| Error::Output {
+            path: path.to_owned(),
+            what: e.to_string(),
+        })?;
+        std::io::Write::write_all(w, b"\n").map_err(|e| Error::io(path, e))
+    })
+}
+
 /// Runs the whole job. `on_progress` sees every shot and may return false
 /// to stop early (the best solution so far is still rendered and written).
 pub fn run_render(

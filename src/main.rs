@@ -4,6 +4,7 @@
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
@@ -102,6 +103,12 @@ struct RenderArgs {
     /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
     #[arg(long)]
     exposure: Option<f32>,
+    /// Print the GPU time per pass (Vulkan timestamps: count, total, mean, share).
+    #[arg(long)]
+    profile: bool,
+    /// Write settings, results and per-pass timings as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    report: Option<PathBuf>,
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
@@ -162,6 +169,8 @@ fn main() -> ExitCode {
         None => render(cli.render),
     };
     match result {
+        // The partial result was written; the exit status still says so.
+        Ok(()) if INTERRUPTED.load(Ordering::SeqCst) => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -218,25 +227,112 @@ fn render(args: RenderArgs) -> Result<()> {
     job.size = args.size;
     job.exposure = args.exposure;
 
-    let show_progress = !args.quiet && std::io::stderr().is_terminal();
-    let mut last = Instant::now();
+    if let Some(report) = &args.report {
+        vkrad::app::check_output_path(report, &["json"])?;
+    }
+    install_interrupt_handler();
+    let mut progress = ProgressLine::new(
+        !args.quiet && std::io::stderr().is_terminal(),
+        args.converge,
+    );
     let report = run_render(&job, None, |p| {
-        if show_progress && last.elapsed() > Duration::from_millis(250) {
-            last = Instant::now();
-            eprint!("\r  shot {:>6}  residual {:.3e}   ", p.shots, p.residual);
-        }
-        true
+        progress.update(p);
+        !INTERRUPTED.load(Ordering::SeqCst)
     })?;
-    if show_progress {
-        eprint!("\r{:60}\r", "");
+    progress.clear();
+    if let Some(path) = &args.report {
+        vkrad::app::write_report(path, &report.to_json(&job))?;
     }
     if !args.quiet {
-        print_summary(&report);
+        print_summary(&report, args.profile);
+        if let Some(path) = &args.report {
+            println!("  wrote     {}", path.display());
+        }
     }
     Ok(())
 }
 
-fn print_summary(r: &RenderReport) {
+/// Set by Ctrl-C: the solve stops after the current shot and the best image
+/// so far is still written. A second Ctrl-C exits at once.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+fn install_interrupt_handler() {
+    let result = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted twice: exiting without writing");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the current shot, then writing the partial result (Ctrl-C again to abort)");
+    });
+    if let Err(e) = result {
+        eprintln!("warning: cannot install the Ctrl-C handler: {e}");
+    }
+}
+
+/// A one-line progress display on stderr (only on a terminal): shots,
+/// residual, speed and an ETA from the residual's recent decay rate.
+struct ProgressLine {
+    enabled: bool,
+    converge: f64,
+    start: Instant,
+    last_draw: Instant,
+    /// (shots, ln residual, seconds) some time ago, for the decay rate.
+    anchor: Option<(usize, f64, f64)>,
+}
+
+impl ProgressLine {
+    fn new(enabled: bool, converge: f64) -> Self {
+        let now = Instant::now();
+        ProgressLine {
+            enabled,
+            converge,
+            start: now,
+            last_draw: now,
+            anchor: None,
+        }
+    }
+
+    fn update(&mut self, p: &vkrad::solve::Progress) {
+        if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
+            return;
+        }
+        self.last_draw = Instant::now();
+        let t = self.start.elapsed().as_secs_f64();
+        let ln_r = p.residual.max(1e-300).ln();
+        let target = self.converge.max(1e-300).ln();
+        // Fraction done on a log scale: residual 1 -> 0, converge -> 1.
+        let done = (ln_r / target).clamp(0.0, 1.0);
+        let eta = match self.anchor {
+            Some((s0, ln0, t0)) if p.shots > s0 + 10 && ln_r < ln0 => {
+                let rate = (ln0 - ln_r) / (t - t0);
+                Some(((ln_r - target) / rate).max(0.0))
+            }
+            _ => None,
+        };
+        if self.anchor.is_none_or(|(_, _, t0)| t - t0 > 5.0) {
+            self.anchor = Some((p.shots, ln_r, t));
+        }
+        let width = 24;
+        let filled = (done * width as f64) as usize;
+        let eta = eta.map_or("--".into(), |e| format!("{e:.0} s"));
+        eprint!(
+            "\r  [{}{}] shot {:>7}  residual {:.2e}  {:.0} shots/s  ETA {eta}    ",
+            "#".repeat(filled),
+            ".".repeat(width - filled),
+            p.shots,
+            p.residual,
+            p.shots as f64 / t.max(1e-9),
+        );
+    }
+
+    fn clear(&self) {
+        if self.enabled {
+            eprint!("\r{:100}\r", "");
+        }
+    }
+}
+
+fn print_summary(r: &RenderReport, profile: bool) {
     let s = &r.solution;
     let emitters = r
         .scene
@@ -266,7 +362,9 @@ fn print_summary(r: &RenderReport) {
         "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
         s.shots,
         s.residual,
-        if s.converged {
+        if s.interrupted {
+            " (PARTIAL: interrupted)"
+        } else if s.converged {
             " (converged)"
         } else {
             " (NOT converged: raise --max-shots)"
@@ -278,21 +376,28 @@ fn print_summary(r: &RenderReport) {
         .map(|(name, secs)| format!("{name} {secs:.2}s"))
         .collect();
     println!("  wall      {}", stages.join(", "));
-    let total = r.gpu_times.total().as_secs_f64().max(1e-12);
+    let total = r.gpu_times.total().as_secs_f64();
     let source = if r.gpu_times.gpu {
         "GPU timestamps"
     } else {
-        "CPU timers"
+        "CPU timers: this device has no timestamp queries"
     };
-    println!("  passes    ({source})");
-    for (stage, (count, time)) in &r.gpu_times.stages {
-        let t = time.as_secs_f64();
+    if profile {
+        println!("  passes    ({source})");
         println!(
-            "    {stage:<22} {count:>7} x  {:>9.3} ms mean  {:>8.3} s total  {:>5.1}%",
-            1e3 * t / *count as f64,
-            t,
-            100.0 * t / total
+            "    {:<24} {:>8} {:>12} {:>12} {:>7}",
+            "pass", "count", "total s", "mean ms", "share"
         );
+        for (stage, (count, time)) in &r.gpu_times.stages {
+            let t = time.as_secs_f64();
+            println!(
+                "    {stage:<24} {count:>8} {t:>12.3} {:>12.4} {:>6.1}%",
+                1e3 * t / *count as f64,
+                100.0 * t / total.max(1e-12)
+            );
+        }
+    } else {
+        println!("  gpu       {total:.2}s in passes ({source}; --profile for the table)");
     }
     if s.shots > 0 {
         println!(

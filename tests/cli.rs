@@ -188,3 +188,40 @@ fn devices_lists_at_least_one() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(String::from_utf8_lossy(&out.stdout).contains("[0]"));
 }
+
+#[test]
+fn ctrl_c_stops_cleanly_and_writes_the_partial_result() {
+    let dir = temp_dir("interrupt");
+    let child = Command::new(env!("CARGO_BIN_EXE_vkrad"))
+        .args([
+            "cornell",
+            "-o",
+            "partial.png",
+            "--size",
+            "32x32",
+            "--report",
+            "run.json",
+        ])
+        .current_dir(&dir)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Long enough to be solving (the full solve takes far longer).
+    std::thread::sleep(std::time::Duration::from_secs(3));
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let out = child.wait_with_output().unwrap();
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(130), "{summary}\n{}", stderr(&out));
+    assert!(summary.contains("PARTIAL"), "{summary}");
+    assert!(dir.join("partial.png").exists());
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("run.json")).unwrap()).unwrap();
+    assert_eq!(report["solve"]["interrupted"], true);
+    assert!(report["solve"]["shots"].as_u64().unwrap() > 0);
+    std::fs::remove_dir_all(&dir).ok();
+}

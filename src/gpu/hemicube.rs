@@ -69,6 +69,23 @@ const B_ELEMENTS: u32 = 4;
 const B_RADIOSITY: u32 = 5;
 const B_UNSHOT: u32 = 6;
 
+#[derive(Clone, Copy)]
+enum Submission {
+    Shoot,
+    FormFactors,
+    UploadShoot,
+}
+
+impl Submission {
+    fn cpu_label(self) -> &'static str {
+        match self {
+            Submission::Shoot => "hemicube shot (CPU timer)",
+            Submission::FormFactors => "hemicube (CPU timer)",
+            Submission::UploadShoot => "uploaded shot (CPU timer)",
+        }
+    }
+}
+
 pub struct HemicubeEngine {
     device: Arc<Device>,
     element_count: u32,
@@ -80,6 +97,8 @@ pub struct HemicubeEngine {
     radiosity: Buffer,
     unshot: Buffer,
     ff: Buffer,
+    /// Host-visible form factors for shots computed on the CPU.
+    ff_upload: Buffer,
     // Kept alive for the recorded command buffers.
     _vertices: Buffer,
     _weights: Buffer,
@@ -93,8 +112,10 @@ pub struct HemicubeEngine {
     shoot_cmds: Commands,
     ff_cmds: Commands,
     readback_cmds: Commands,
+    upload_shoot_cmds: Commands,
     shoot_profiler: Option<GpuProfiler>,
     ff_profiler: Option<GpuProfiler>,
+    upload_profiler: Option<GpuProfiler>,
     /// Time per stage, accumulated over all submissions.
     pub times: StageTimes,
 }
@@ -144,6 +165,13 @@ impl HemicubeEngine {
             4 * n as u64,
             storage | dst | src,
             MemoryLocation::GpuOnly,
+        )?;
+        let ff_upload = Buffer::new(
+            device,
+            "element form factors (CPU upload)",
+            4 * n as u64,
+            src,
+            MemoryLocation::CpuToGpu,
         )?;
         let readback = Buffer::new(
             device,
@@ -240,6 +268,7 @@ impl HemicubeEngine {
             radiosity,
             unshot,
             ff,
+            ff_upload,
             _vertices: vertices,
             _weights: weights,
             _elements: elements,
@@ -252,12 +281,15 @@ impl HemicubeEngine {
             shoot_cmds: Commands::new(device, "shoot commands")?,
             ff_cmds: Commands::new(device, "form-factor commands")?,
             readback_cmds: Commands::new(device, "readback commands")?,
+            upload_shoot_cmds: Commands::new(device, "upload-shoot commands")?,
             shoot_profiler: GpuProfiler::new(device, "shoot timestamps", 8)?,
             ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
+            upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
             times: StageTimes::default(),
         };
         engine.record_shoot()?;
         engine.record_form_factors()?;
+        engine.record_upload_shoot()?;
         Ok(engine)
     }
 
@@ -477,6 +509,78 @@ impl HemicubeEngine {
         let cmd = self.shoot_cmds.begin()?;
         let mut profiler = self.shoot_profiler.take();
         self.record_hemicube(cmd, &mut profiler);
+        let compute_rw =
+            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        // Reduction atomics -> shooting read of ff.
+        self.record_shooting(
+            cmd,
+            &mut profiler,
+            (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+        );
+        self.shoot_profiler = profiler;
+        self.shoot_cmds.end()
+    }
+
+    /// A shot whose form factors the CPU computed (ray-traced or analytic):
+    /// copy them from the host-visible upload buffer into `ff`, then shoot.
+    fn record_upload_shoot(&mut self) -> Result<()> {
+        let cmd = self.upload_shoot_cmds.begin()?;
+        let mut profiler = self.upload_profiler.take();
+        if let Some(p) = profiler.as_mut() {
+            p.begin(cmd);
+        }
+        barriers(
+            &self.device,
+            cmd,
+            // Previous shooting/readback reads of ff -> this upload copy (WAR).
+            &[buffer_barrier(
+                self.ff.raw(),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::empty(),
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+            )],
+            &[],
+        );
+        let region = [vk::BufferCopy {
+            src_offset: 0,
+            dst_offset: 0,
+            size: 4 * self.element_count as u64,
+        }];
+        // SAFETY: both buffers hold element_count u32s.
+        unsafe {
+            self.device
+                .raw
+                .cmd_copy_buffer(cmd, self.ff_upload.raw(), self.ff.raw(), &region)
+        };
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "form-factor upload");
+        }
+        // Upload copy -> shooting read of ff.
+        self.record_shooting(
+            cmd,
+            &mut profiler,
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+        );
+        self.upload_profiler = profiler;
+        self.upload_shoot_cmds.end()
+    }
+
+    /// The shooting dispatch and the unshot readback, after `ff` was written
+    /// by `ff_producer` (stage, access).
+    fn record_shooting(
+        &self,
+        cmd: vk::CommandBuffer,
+        profiler: &mut Option<GpuProfiler>,
+        ff_producer: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    ) {
         let d = &self.device;
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
@@ -484,10 +588,10 @@ impl HemicubeEngine {
             d,
             cmd,
             &[
-                // Reduction atomics -> shooting read of ff.
+                // ff producer (reduction or upload) -> shooting read of ff.
                 buffer_barrier(
                     self.ff.raw(),
-                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                    ff_producer,
                     (
                         vk::PipelineStageFlags2::COMPUTE_SHADER,
                         vk::AccessFlags2::SHADER_STORAGE_READ,
@@ -512,6 +616,14 @@ impl HemicubeEngine {
         unsafe {
             d.raw
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.shoot_pipeline.raw);
+            d.raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.bindings.layout,
+                0,
+                &[self.bindings.set],
+                &[],
+            );
             d.raw
                 .cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
         }
@@ -522,8 +634,6 @@ impl HemicubeEngine {
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
         }
-        self.shoot_profiler = profiler;
-        self.shoot_cmds.end()
     }
 
     fn record_form_factors(&mut self) -> Result<()> {
@@ -601,8 +711,9 @@ impl HemicubeEngine {
     }
 
     /// One progressive-refinement shot from element `shooter` whose unshot
-    /// radiosity is `unshot_rgb` and area `area`. Returns every element's
-    /// unshot radiosity after the shot (rgba, a unused).
+    /// radiosity is `unshot_rgb` and area `area`, with form factors from the
+    /// GPU hemicube. Returns every element's unshot radiosity after the shot
+    /// (rgba, a unused).
     pub fn shoot(
         &mut self,
         face_view_proj: &[glam::Mat4; 5],
@@ -612,10 +723,36 @@ impl HemicubeEngine {
     ) -> Result<Vec<[f32; 4]>> {
         let [r, g, b] = unshot_rgb;
         self.write_params(face_view_proj, shooter, [r, g, b, area])?;
-        self.shoot_cmds.submit_and_wait()?;
-        if let Some(p) = &self.shoot_profiler {
-            p.collect(&mut self.times)?;
+        self.submit(Submission::Shoot)?;
+        self.readback.read(self.element_count as usize)
+    }
+
+    /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
+    /// were computed on the CPU (`form_factors`, one per element).
+    pub fn shoot_with(
+        &mut self,
+        form_factors: &[f32],
+        shooter: u32,
+        unshot_rgb: [f32; 3],
+        area: f32,
+    ) -> Result<Vec<[f32; 4]>> {
+        if form_factors.len() != self.element_count as usize {
+            return Err(Error::Invalid(format!(
+                "{} form factors for {} elements",
+                form_factors.len(),
+                self.element_count
+            )));
         }
+        let one = crate::formfactor::hemicube::FF_FIXED_ONE;
+        // Same fixed point as the hemicube reduction; u32 holds up to F = 2.
+        let fixed: Vec<u32> = form_factors
+            .iter()
+            .map(|&f| (f.max(0.0) as f64 * one).round().min(u32::MAX as f64) as u32)
+            .collect();
+        self.ff_upload.write(0, &fixed)?;
+        let [r, g, b] = unshot_rgb;
+        self.write_params(&[glam::Mat4::IDENTITY; 5], shooter, [r, g, b, area])?;
+        self.submit(Submission::UploadShoot)?;
         self.readback.read(self.element_count as usize)
     }
 
@@ -623,15 +760,29 @@ impl HemicubeEngine {
     /// for every element (no shooting).
     pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
         self.write_params(face_view_proj, u32::MAX, [0.0; 4])?;
-        self.ff_cmds.submit_and_wait()?;
-        if let Some(p) = &self.ff_profiler {
-            p.collect(&mut self.times)?;
-        }
+        self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
         Ok(fixed
             .into_iter()
             .map(|f| f as f64 / crate::formfactor::hemicube::FF_FIXED_ONE)
             .collect())
+    }
+
+    /// Submits one of the recorded command buffers, waits, and adds its
+    /// time per pass (GPU timestamps, or one CPU-timed entry without them).
+    fn submit(&mut self, which: Submission) -> Result<()> {
+        let (cmds, profiler) = match which {
+            Submission::Shoot => (&self.shoot_cmds, &self.shoot_profiler),
+            Submission::FormFactors => (&self.ff_cmds, &self.ff_profiler),
+            Submission::UploadShoot => (&self.upload_shoot_cmds, &self.upload_profiler),
+        };
+        let start = std::time::Instant::now();
+        cmds.submit_and_wait()?;
+        match profiler {
+            Some(p) => p.collect(&mut self.times)?,
+            None => self.times.add(which.cpu_label(), start.elapsed()),
+        }
+        Ok(())
     }
 
     /// Every element's radiosity (rgba, a unused).

@@ -51,6 +51,8 @@ pub struct Solution {
     /// Unshot power / emitted power at the end.
     pub residual: f64,
     pub converged: bool,
+    /// The caller stopped the solve early (Ctrl-C): the result is partial.
+    pub interrupted: bool,
     /// Residual before the first shot and after each shot.
     pub residual_history: Vec<f64>,
     /// Emitted power (mean over rgb) in the scene's units.
@@ -154,6 +156,7 @@ pub fn solve(
     let mut residual_history = vec![1.0];
     let mut shots = 0;
     let mut converged = false;
+    let mut interrupted = false;
 
     while shots < settings.max_shots {
         if unshot_power / emitted_power < settings.converge {
@@ -185,6 +188,7 @@ pub fn solve(
         let residual = unshot_power / emitted_power;
         residual_history.push(residual);
         if !on_progress(&Progress { shots, residual }) {
+            interrupted = true;
             break;
         }
     }
@@ -201,6 +205,7 @@ pub fn solve(
         shots,
         residual: unshot_power / emitted_power,
         converged,
+        interrupted,
         residual_history,
         emitted_power,
         times: engine.times.clone(),
