@@ -84,7 +84,7 @@ mod tests {
     fn auto_exposure_maps_p99_to_one() {
         // 100 non-black pixels with luminance 1..=100 plus black ones.
         let mut px: Vec<[f32; 3]> = (1..=100).map(|i| [i as f32; 3]).collect();
-        px.extend(std::iter::repeat([0.0; 3]).take(500));
+        px.extend(std::iter::repeat_n([0.0; 3], 500));
         let k = auto_exposure(&px);
         assert!((k - 1.0 / 99.0).abs() < 1e-6, "k = {k}");
         let out = tonemap(&px, None);

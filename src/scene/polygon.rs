@@ -115,7 +115,7 @@ pub(crate) fn process(input: &[DVec3]) -> Result<Outcome, Rejection> {
     // Drop consecutive repeats (a b b c -> a b c).
     let mut v: Vec<DVec3> = Vec::with_capacity(input.len());
     for p in input {
-        if v.last().map_or(true, |q| q.distance(*p) > SAME_POINT * l) {
+        if v.last().is_none_or(|q| q.distance(*p) > SAME_POINT * l) {
             v.push(*p);
         }
     }
@@ -283,7 +283,7 @@ fn split_quad(v: &[DVec3], n: DVec3) -> Option<[[usize; 3]; 2]> {
             continue;
         }
         let score = n0.normalize().dot(n1.normalize());
-        if best.map_or(true, |(_, b)| score > b) {
+        if best.is_none_or(|(_, b)| score > b) {
             best = Some((s, score));
         }
     }
@@ -360,7 +360,7 @@ pub(crate) fn ear_clip(p: &[DVec2], l: f64) -> Option<Vec<[usize; 3]>> {
                 .max(p[b].distance_squared(p[c]))
                 .max(p[c].distance_squared(p[a]));
             let quality = area2 / longest;
-            if best.map_or(true, |(_, q)| quality > q) {
+            if best.is_none_or(|(_, q)| quality > q) {
                 best = Some((k, quality));
             }
         }

@@ -170,7 +170,7 @@ mod tests {
     fn brute_max(keys: &[f32]) -> Option<(usize, f32)> {
         let mut best: Option<(usize, f32)> = None;
         for (i, &k) in keys.iter().enumerate() {
-            if best.map_or(true, |(_, bk)| k > bk) {
+            if best.is_none_or(|(_, bk)| k > bk) {
                 best = Some((i, k));
             }
         }
