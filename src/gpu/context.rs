@@ -314,6 +314,7 @@ const REQUIRED_FORMATS: [(vk::Format, vk::FormatFeatureFlags, &str); 3] = [
 /// The logical device, its queue and its memory allocator.
 pub struct Device {
     pub(crate) instance: Arc<Instance>,
+    pub(crate) physical: vk::PhysicalDevice,
     pub(crate) raw: ash::Device,
     pub(crate) queue: vk::Queue,
     pub(crate) queue_family: u32,
@@ -427,6 +428,7 @@ impl Device {
             .map(|_| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
         Ok(Arc::new(Device {
             instance,
+            physical,
             raw,
             queue,
             queue_family,

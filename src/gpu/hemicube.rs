@@ -246,6 +246,7 @@ impl HemicubeEngine {
                 color_format: ITEM_FORMAT,
                 depth_format: DEPTH_FORMAT,
                 depth_compare: vk::CompareOp::GREATER,
+                stencil: None,
             },
         )?;
         let reduce_pipeline = Pipeline::compute(

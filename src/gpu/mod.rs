@@ -9,6 +9,7 @@ pub mod pipeline;
 pub mod profiler;
 pub mod raster;
 pub mod shaders;
+pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
 pub use profiler::StageTimes;

@@ -181,6 +181,17 @@ pub struct GraphicsDesc<'a> {
     pub depth_format: vk::Format,
     /// Reverse-Z uses GREATER.
     pub depth_compare: vk::CompareOp,
+    /// `None` for depth-only attachments.
+    pub stencil: Option<StencilMode>,
+}
+
+/// How a pipeline uses the stencil buffer (reference value 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StencilMode {
+    /// Always pass; write 1 where drawn (the target's footprint).
+    Mark,
+    /// Pass only where the stencil holds 1; leave it unchanged.
+    InsideMark,
 }
 
 const ENTRY: &std::ffi::CStr = c"main";
@@ -269,10 +280,26 @@ impl Pipeline {
             .line_width(1.0);
         let multisample = vk::PipelineMultisampleStateCreateInfo::default()
             .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+        let mut depth = vk::PipelineDepthStencilStateCreateInfo::default()
             .depth_test_enable(true)
             .depth_write_enable(true)
             .depth_compare_op(desc.depth_compare);
+        if let Some(mode) = desc.stencil {
+            let (compare, pass) = match mode {
+                StencilMode::Mark => (vk::CompareOp::ALWAYS, vk::StencilOp::REPLACE),
+                StencilMode::InsideMark => (vk::CompareOp::EQUAL, vk::StencilOp::KEEP),
+            };
+            let face = vk::StencilOpState {
+                fail_op: vk::StencilOp::KEEP,
+                pass_op: pass,
+                depth_fail_op: vk::StencilOp::KEEP,
+                compare_op: compare,
+                compare_mask: 0xff,
+                write_mask: 0xff,
+                reference: 1,
+            };
+            depth = depth.stencil_test_enable(true).front(face).back(face);
+        }
         let blend_attachments = [vk::PipelineColorBlendAttachmentState::default()
             .color_write_mask(vk::ColorComponentFlags::RGBA)];
         let blend =
@@ -283,6 +310,9 @@ impl Pipeline {
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .color_attachment_formats(&color_formats)
             .depth_attachment_format(desc.depth_format);
+        if desc.stencil.is_some() {
+            rendering = rendering.stencil_attachment_format(desc.depth_format);
+        }
         let info = [vk::GraphicsPipelineCreateInfo::default()
             .stages(&stages)
             .vertex_input_state(&vertex_input)

@@ -82,6 +82,7 @@ pub fn render_lit_mesh(
             color_format: COLOR_FORMAT,
             depth_format: DEPTH_FORMAT,
             depth_compare: vk::CompareOp::GREATER,
+            stencil: None,
         },
     )?;
     let cmds = Commands::new(device, "final render commands")?;

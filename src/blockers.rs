@@ -1,0 +1,138 @@
+//! Which polygons may shadow which target, seen from each emitter vertex,
+//! found on the GPU (thesis 4.2.2, "polygon culling"): the blocker oracle of
+//! the discontinuity mesher.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use glam::{Mat4, Vec3};
+
+use crate::error::Result;
+use crate::formfactor::hemicube::tangent_frame;
+use crate::gpu::hemicube::ItemVertex;
+use crate::gpu::visibility::{VisibilityPass, VisibilityTile};
+use crate::gpu::{Device, StageTimes};
+use crate::projection::frustum;
+use crate::scene::Scene;
+
+/// Blockers per (emitter patch, emitter vertex, target patch): `None` when
+/// the target is not lit from that vertex at all.
+#[derive(Debug, Clone, Default)]
+pub struct BlockerTable {
+    table: HashMap<(usize, usize, usize), Vec<usize>>,
+    /// Pairs considered, and those that needed a GPU tile.
+    pub pairs: usize,
+    pub tiles: usize,
+    pub times: StageTimes,
+}
+
+impl BlockerTable {
+    pub fn get(&self, emitter: usize, vertex: usize, target: usize) -> Option<Vec<usize>> {
+        self.table.get(&(emitter, vertex, target)).cloned()
+    }
+}
+
+/// The view from light point `v` along the target's inward normal (the
+/// thesis's gluLookAt, fig. 14), with an off-centre frustum fitted to the
+/// target's outline plus a pixel of margin. `None` if `v` is not strictly in
+/// front of the target.
+pub fn tile_view(v: Vec3, target: &[Vec3], normal: Vec3, res: u32) -> Option<Mat4> {
+    let distance = (v - target[0]).dot(normal);
+    let size = target
+        .iter()
+        .map(|p| (*p - target[0]).length())
+        .fold(0.0f32, f32::max);
+    if !(distance > 1e-6 * size.max(1e-12)) {
+        return None;
+    }
+    let (up, _) = tangent_frame(normal);
+    let view = Mat4::look_to_rh(v, -normal, up);
+    let (mut lo, mut hi) = (
+        glam::Vec2::splat(f32::INFINITY),
+        glam::Vec2::splat(f32::NEG_INFINITY),
+    );
+    for p in target {
+        let q = view.transform_point3(*p);
+        let d = -q.z;
+        let uv = glam::Vec2::new(q.x / d, q.y / d);
+        lo = lo.min(uv);
+        hi = hi.max(uv);
+    }
+    let margin = (hi - lo).max_element() / res as f32;
+    let (lo, hi) = (lo - margin, hi + margin);
+    // Blockers closer to the light than this are ignored: a millionth of
+    // the light-to-target distance.
+    let near = 1e-6 * distance;
+    Some(frustum(lo.x, hi.x, lo.y, hi.y, near) * view)
+}
+
+/// Runs the GPU visibility pass for every emitter vertex and target patch.
+pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Result<BlockerTable> {
+    // Every patch as a triangle fan, tagged with its index; patch p's
+    // triangles are contiguous.
+    let mut triangles = Vec::new();
+    let mut ranges = Vec::with_capacity(scene.patches.len());
+    for (i, p) in scene.patches.iter().enumerate() {
+        let first = triangles.len() as u32;
+        for k in 1..p.vertices.len() - 1 {
+            for v in [p.vertices[0], p.vertices[k], p.vertices[k + 1]] {
+                triangles.push(ItemVertex {
+                    position: v.to_array(),
+                    element: i as u32,
+                });
+            }
+        }
+        ranges.push((first, triangles.len() as u32 - first));
+    }
+    let mut keys = Vec::new();
+    let mut tiles = Vec::new();
+    let mut table = BlockerTable::default();
+    for (e, emitter) in scene.patches.iter().enumerate() {
+        if !scene.material_of(emitter).is_emitter() {
+            continue;
+        }
+        for (k, &v) in emitter.vertices.iter().enumerate() {
+            for (t, target) in scene.patches.iter().enumerate() {
+                if t == e || scene.material_of(target).is_emitter() {
+                    continue;
+                }
+                table.pairs += 1;
+                // The emitter lights only its front half-space.
+                let lit = target
+                    .vertices
+                    .iter()
+                    .any(|p| (*p - v).dot(emitter.normal) > 0.0);
+                if !lit {
+                    continue;
+                }
+                if let Some(view_proj) = tile_view(v, &target.vertices, target.normal, tile_res) {
+                    keys.push((e, k, t));
+                    tiles.push(VisibilityTile {
+                        view_proj,
+                        first_vertex: ranges[t].0,
+                        vertex_count: ranges[t].1,
+                    });
+                }
+            }
+        }
+    }
+    table.tiles = tiles.len();
+    if tiles.is_empty() {
+        return Ok(table);
+    }
+    let mut pass = VisibilityPass::new(device, &triangles, scene.patches.len() as u32, tile_res)?;
+    let seen = pass.run(&tiles)?;
+    for ((e, k, t), ids) in keys.into_iter().zip(seen) {
+        // The target must show in its own tile to be lit from there at all.
+        if ids.binary_search(&(t as u32)).is_ok() {
+            let blockers = ids
+                .into_iter()
+                .map(|id| id as usize)
+                .filter(|&id| id != t && id != e)
+                .collect();
+            table.table.insert((e, k, t), blockers);
+        }
+    }
+    table.times = pass.times.clone();
+    Ok(table)
+}

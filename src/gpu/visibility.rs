@@ -1,0 +1,537 @@
+//! Stencil-masked item buffers for discontinuity meshing (thesis 4.2.2):
+//! for many (light point, target polygon) pairs at once, which polygons are
+//! seen inside the target's footprint, nearer than the target.
+//!
+//! Each pair owns a square tile of an atlas. Per tile: the target is drawn
+//! into the stencil (and depth, and its own id); then every polygon is drawn
+//! where the stencil is set and the depth is nearer or equal. What shows is
+//! the target itself (where it is lit) and its blockers. A compute pass turns
+//! each tile into a bitset of polygon ids.
+
+use std::sync::Arc;
+
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::context::Device;
+use super::hemicube::{upload, ItemVertex};
+use super::memory::{Buffer, Image};
+use super::pipeline::{Bindings, GraphicsDesc, Pipeline, StencilMode};
+use super::profiler::{GpuProfiler, StageTimes};
+use super::shaders;
+use crate::error::{Error, Result};
+
+/// One tile: the view from a light point fitted to a target polygon.
+#[derive(Debug, Clone, Copy)]
+pub struct VisibilityTile {
+    pub view_proj: glam::Mat4,
+    /// The target's triangles: `vertex_count` vertices from `first_vertex`.
+    pub first_vertex: u32,
+    pub vertex_count: u32,
+}
+
+const ITEM_FORMAT: vk::Format = vk::Format::R32_UINT;
+const NO_POLYGON: u32 = u32::MAX;
+/// Tiles per atlas side at most; a batch is up to 32 x 32 tiles.
+const MAX_TILES_PER_SIDE: u32 = 32;
+
+/// The depth-stencil formats to try, best first.
+const DEPTH_STENCIL_FORMATS: [vk::Format; 2] = [
+    vk::Format::D32_SFLOAT_S8_UINT,
+    vk::Format::D24_UNORM_S8_UINT,
+];
+
+pub struct VisibilityPass {
+    device: Arc<Device>,
+    tile_res: u32,
+    tiles_per_side: u32,
+    polygon_count: u32,
+    words_per_tile: u32,
+    vertices: Buffer,
+    item: Image,
+    depth: Image,
+    flags: Buffer,
+    readback: Buffer,
+    draw_bindings: Bindings,
+    flag_bindings: Bindings,
+    mark_pipeline: Pipeline,
+    item_pipeline: Pipeline,
+    flags_pipeline: Pipeline,
+    commands: Commands,
+    profiler: Option<GpuProfiler>,
+    depth_format: vk::Format,
+    /// GPU time per pass across all batches.
+    pub times: StageTimes,
+}
+
+impl VisibilityPass {
+    /// `triangles`: every polygon's triangles, each vertex tagged with its
+    /// polygon id (< `polygon_count`). `tile_res`: pixels per tile side.
+    pub fn new(
+        device: &Arc<Device>,
+        triangles: &[ItemVertex],
+        polygon_count: u32,
+        tile_res: u32,
+    ) -> Result<Self> {
+        if triangles.is_empty() || polygon_count == 0 {
+            return Err(Error::Invalid(
+                "visibility: the scene has no polygons".into(),
+            ));
+        }
+        if !(4..=1024).contains(&tile_res) {
+            return Err(Error::Invalid(format!(
+                "--dm-res must be between 4 and 1024 pixels, got {tile_res}"
+            )));
+        }
+        let depth_format = pick_depth_stencil(device)?;
+        let max_side = device.limits.max_image_dimension2_d.min(8192);
+        let tiles_per_side = (max_side / tile_res).clamp(1, MAX_TILES_PER_SIDE);
+        let side = tiles_per_side * tile_res;
+        let extent = vk::Extent2D {
+            width: side,
+            height: side,
+        };
+        let words_per_tile = polygon_count.div_ceil(32);
+        let tiles = tiles_per_side * tiles_per_side;
+        let flag_bytes = 4 * words_per_tile as u64 * tiles as u64;
+
+        let vertices = upload(
+            device,
+            "visibility vertices",
+            triangles,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        let item = Image::new(
+            device,
+            "visibility item buffer",
+            ITEM_FORMAT,
+            extent,
+            vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::STORAGE,
+            vk::ImageAspectFlags::COLOR,
+        )?;
+        let depth = Image::new(
+            device,
+            "visibility depth-stencil",
+            depth_format,
+            extent,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+        )?;
+        let flags = Buffer::new(
+            device,
+            "visibility flags",
+            flag_bytes,
+            vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::GpuOnly,
+        )?;
+        let readback = Buffer::new(
+            device,
+            "visibility flags readback",
+            flag_bytes,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let draw_bindings = Bindings::new(device, "visibility draw bindings", &[], 64)?;
+        let flag_bindings = Bindings::new(
+            device,
+            "visibility flag bindings",
+            &[
+                (0, vk::DescriptorType::STORAGE_IMAGE),
+                (1, vk::DescriptorType::STORAGE_BUFFER),
+            ],
+            16,
+        )?;
+        flag_bindings.bind_storage_image(0, item.view());
+        flag_bindings.bind_buffer(1, vk::DescriptorType::STORAGE_BUFFER, flags.raw());
+        let desc = |stencil, compare| GraphicsDesc {
+            vertex: shaders::DM_ITEM_VERT,
+            fragment: shaders::DM_ITEM_FRAG,
+            vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
+            attributes: &[
+                (0, vk::Format::R32G32B32_SFLOAT, 0),
+                (1, vk::Format::R32_UINT, 12),
+            ],
+            color_format: ITEM_FORMAT,
+            depth_format,
+            depth_compare: compare,
+            stencil: Some(stencil),
+        };
+        let mark_pipeline = Pipeline::graphics(
+            device,
+            "visibility target mark",
+            draw_bindings.layout,
+            &desc(StencilMode::Mark, vk::CompareOp::ALWAYS),
+        )?;
+        let item_pipeline = Pipeline::graphics(
+            device,
+            "visibility blockers",
+            draw_bindings.layout,
+            &desc(StencilMode::InsideMark, vk::CompareOp::GREATER_OR_EQUAL),
+        )?;
+        let flags_pipeline = Pipeline::compute(
+            device,
+            "visibility flags",
+            flag_bindings.layout,
+            shaders::DM_FLAGS_COMP,
+        )?;
+        Ok(VisibilityPass {
+            device: device.clone(),
+            tile_res,
+            tiles_per_side,
+            polygon_count,
+            words_per_tile,
+            vertices,
+            item,
+            depth,
+            flags,
+            readback,
+            draw_bindings,
+            flag_bindings,
+            mark_pipeline,
+            item_pipeline,
+            flags_pipeline,
+            commands: Commands::new(device, "visibility commands")?,
+            profiler: GpuProfiler::new(device, "visibility timestamps", 8)?,
+            depth_format,
+            times: StageTimes::default(),
+        })
+    }
+
+    /// Tiles per submission.
+    pub fn batch_size(&self) -> usize {
+        (self.tiles_per_side * self.tiles_per_side) as usize
+    }
+
+    /// For each tile, the polygon ids seen in it (sorted).
+    pub fn run(&mut self, tiles: &[VisibilityTile]) -> Result<Vec<Vec<u32>>> {
+        let mut seen = Vec::with_capacity(tiles.len());
+        for batch in tiles.chunks(self.batch_size()) {
+            self.record(batch)?;
+            let start = std::time::Instant::now();
+            self.commands.submit_and_wait()?;
+            match &self.profiler {
+                Some(p) => p.collect(&mut self.times)?,
+                None => self
+                    .times
+                    .add("visibility batch (CPU timer)", start.elapsed()),
+            }
+            let words = self.words_per_tile as usize;
+            let flags: Vec<u32> = self.readback.read(words * batch.len())?;
+            for tile_flags in flags.chunks(words) {
+                let mut ids = vec![];
+                for (w, &bits) in tile_flags.iter().enumerate() {
+                    let mut b = bits;
+                    while b != 0 {
+                        let bit = b.trailing_zeros();
+                        let id = w as u32 * 32 + bit;
+                        if id < self.polygon_count {
+                            ids.push(id);
+                        }
+                        b &= b - 1;
+                    }
+                }
+                seen.push(ids);
+            }
+        }
+        Ok(seen)
+    }
+
+    fn record(&mut self, batch: &[VisibilityTile]) -> Result<()> {
+        let d = self.device.clone();
+        let raw = &d.raw;
+        let cmd = self.commands.begin()?;
+        let mut profiler = self.profiler.take();
+        if let Some(p) = profiler.as_mut() {
+            p.begin(cmd);
+        }
+        let depth_aspect = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        barriers(
+            &d,
+            cmd,
+            // Previous batch's flag readback copy -> this batch's clear (WAR).
+            &[buffer_barrier(
+                self.flags.raw(),
+                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+            )],
+            &[
+                // Previous batch's flag pass read -> this batch's item writes.
+                image_barrier(
+                    self.item.raw(),
+                    vk::ImageAspectFlags::COLOR,
+                    (
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::empty(),
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                    ),
+                ),
+                // Previous batch's depth/stencil writes -> this batch's clear.
+                image_barrier(
+                    self.depth.raw(),
+                    depth_aspect,
+                    (
+                        vk::ImageLayout::UNDEFINED,
+                        vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                    ),
+                ),
+            ],
+        );
+        let side = self.tiles_per_side * self.tile_res;
+        let total_vertices =
+            (self.vertices.size() / std::mem::size_of::<ItemVertex>() as u64) as u32;
+        // SAFETY: cmd is recording; every handle is owned by self.
+        unsafe {
+            raw.cmd_fill_buffer(cmd, self.flags.raw(), 0, vk::WHOLE_SIZE, 0);
+            let color = [vk::RenderingAttachmentInfo::default()
+                .image_view(self.item.view())
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        uint32: [NO_POLYGON; 4],
+                    },
+                })];
+            let depth = vk::RenderingAttachmentInfo::default()
+                .image_view(self.depth.view())
+                .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: 0.0,
+                        stencil: 0,
+                    },
+                });
+            let rendering = vk::RenderingInfo::default()
+                .render_area(vk::Rect2D {
+                    offset: vk::Offset2D::default(),
+                    extent: vk::Extent2D {
+                        width: side,
+                        height: side,
+                    },
+                })
+                .layer_count(1)
+                .color_attachments(&color)
+                .depth_attachment(&depth)
+                .stencil_attachment(&depth);
+            raw.cmd_begin_rendering(cmd, &rendering);
+            raw.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw()], &[0]);
+            for (i, tile) in batch.iter().enumerate() {
+                let i = i as u32;
+                let x = (i % self.tiles_per_side) * self.tile_res;
+                let y = (i / self.tiles_per_side) * self.tile_res;
+                raw.cmd_set_viewport(
+                    cmd,
+                    0,
+                    &[vk::Viewport {
+                        x: x as f32,
+                        y: y as f32,
+                        width: self.tile_res as f32,
+                        height: self.tile_res as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                raw.cmd_set_scissor(
+                    cmd,
+                    0,
+                    &[vk::Rect2D {
+                        offset: vk::Offset2D {
+                            x: x as i32,
+                            y: y as i32,
+                        },
+                        extent: vk::Extent2D {
+                            width: self.tile_res,
+                            height: self.tile_res,
+                        },
+                    }],
+                );
+                raw.cmd_push_constants(
+                    cmd,
+                    self.draw_bindings.layout,
+                    vk::ShaderStageFlags::ALL,
+                    0,
+                    bytemuck::bytes_of(&tile.view_proj.to_cols_array()),
+                );
+                // The target: stencil footprint, its depth and its own id.
+                raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.mark_pipeline.raw);
+                raw.cmd_draw(cmd, tile.vertex_count, 1, tile.first_vertex, 0);
+                // Everything nearer (or the target again) inside the footprint.
+                raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
+                raw.cmd_draw(cmd, total_vertices, 1, 0, 0);
+            }
+            raw.cmd_end_rendering(cmd);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "visibility render");
+        }
+        barriers(
+            &d,
+            cmd,
+            // Clear of the flags -> flag atomics.
+            &[buffer_barrier(
+                self.flags.raw(),
+                (
+                    vk::PipelineStageFlags2::ALL_TRANSFER,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+            )],
+            // Item-buffer writes -> flag pass reads.
+            &[image_barrier(
+                self.item.raw(),
+                vk::ImageAspectFlags::COLOR,
+                (
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    vk::ImageLayout::GENERAL,
+                ),
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_READ,
+                ),
+            )],
+        );
+        let push = [
+            self.tile_res,
+            self.tiles_per_side,
+            batch.len() as u32,
+            self.words_per_tile,
+        ];
+        // SAFETY: as above.
+        unsafe {
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.flags_pipeline.raw);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.flag_bindings.layout,
+                0,
+                &[self.flag_bindings.set],
+                &[],
+            );
+            raw.cmd_push_constants(
+                cmd,
+                self.flag_bindings.layout,
+                vk::ShaderStageFlags::ALL,
+                0,
+                bytemuck::cast_slice(&push),
+            );
+            let rows = batch.len() as u32 / self.tiles_per_side + 1;
+            raw.cmd_dispatch(
+                cmd,
+                side.div_ceil(16),
+                (rows * self.tile_res).min(side).div_ceil(16),
+                1,
+            );
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "visibility flags");
+        }
+        barriers(
+            &d,
+            cmd,
+            // Flag atomics -> copy to the host.
+            &[buffer_barrier(
+                self.flags.raw(),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_READ,
+                ),
+            )],
+            &[],
+        );
+        let bytes = 4 * self.words_per_tile as u64 * batch.len() as u64;
+        // SAFETY: both buffers hold at least `bytes`.
+        unsafe {
+            raw.cmd_copy_buffer(
+                cmd,
+                self.flags.raw(),
+                self.readback.raw(),
+                &[vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size: bytes,
+                }],
+            )
+        };
+        barriers(
+            &d,
+            cmd,
+            // Flag copy -> host read after the fence.
+            &[buffer_barrier(
+                self.readback.raw(),
+                (
+                    vk::PipelineStageFlags2::COPY,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            )],
+            &[],
+        );
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "visibility readback");
+        }
+        self.profiler = profiler;
+        self.commands.end()
+    }
+
+    pub fn depth_format(&self) -> vk::Format {
+        self.depth_format
+    }
+}
+
+fn pick_depth_stencil(device: &Device) -> Result<vk::Format> {
+    for format in DEPTH_STENCIL_FORMATS {
+        // SAFETY: the physical device belongs to this instance.
+        let props = unsafe {
+            device
+                .instance
+                .raw
+                .get_physical_device_format_properties(device.physical, format)
+        };
+        if props
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT)
+        {
+            return Ok(format);
+        }
+    }
+    Err(Error::Unsupported {
+        device: device.info.name.clone(),
+        what: "no depth-stencil format (D32_SFLOAT_S8_UINT or D24_UNORM_S8_UINT) for the discontinuity mesher's item buffer".into(),
+    })
+}
