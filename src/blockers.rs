@@ -42,7 +42,8 @@ pub fn tile_view(v: Vec3, target: &[Vec3], normal: Vec3, res: u32) -> Option<Mat
         .iter()
         .map(|p| (*p - target[0]).length())
         .fold(0.0f32, f32::max);
-    if !(distance > 1e-6 * size.max(1e-12)) {
+    // Also rejects NaN distances.
+    if distance.is_nan() || distance <= 1e-6 * size.max(1e-12) {
         return None;
     }
     let (up, _) = tangent_frame(normal);
