@@ -10,6 +10,10 @@
 use std::f64::consts::PI;
 
 use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::mesh::Mesh;
+use crate::scene::Scene;
 
 /// The (unnormalised) Newell normal of a polygon: twice its area times its
 /// unit normal, pointing to the side from which it runs counter-clockwise.
@@ -179,6 +183,65 @@ pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize)
         total += tri * jac;
     }
     total / area
+}
+
+/// F_ij from element `shooter` (i) to every element j of `mesh`, exact and
+/// without occlusion, sampled at the receivers' vertices: per receiver
+/// vertex v (normal of its patch) `F_{v->i} = point_to_polygon(v, n_v, i)`,
+/// F_ji is the mean over j's corners, and `F_ij = F_ji A_j / A_i`.
+///
+/// The same quantity as `raytrace::RayTracedFormFactors::from_shooter`
+/// without visibility and sampling noise; it equals the hemicube's
+/// element-centre value only in the limit of small elements. Elements of
+/// the shooter's patch and elements lying in the shooter's plane get 0, and
+/// so does everything when the shooter has no area. Like the ray tracer,
+/// each vertex is evaluated a hair inside its patch
+/// (`raytrace::VERTEX_INSET`), so that a vertex on an edge in the
+/// shooter's plane gets the limit from inside its patch rather than 0.
+///
+/// # Panics
+/// If `shooter` is not an element index.
+pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize) -> Vec<f32> {
+    let src = &mesh.elements[shooter];
+    let poly: Vec<DVec3> = src
+        .corners()
+        .iter()
+        .map(|&v| mesh.vertices[v as usize].as_dvec3())
+        .collect();
+    let n_src = src.normal.as_dvec3();
+    let a_src = f64::from(src.area);
+    if a_src.is_nan() || a_src <= 0.0 {
+        return vec![0.0; mesh.elements.len()];
+    }
+    let (points, normals, patches) = crate::formfactor::raytrace::vertex_frames(scene, mesh);
+    let per_vertex: Vec<f64> = (0..mesh.vertices.len())
+        .into_par_iter()
+        .map(|v| {
+            if patches[v] == src.patch || patches[v] == u32::MAX {
+                return 0.0;
+            }
+            point_to_polygon(points[v].as_dvec3(), normals[v].as_dvec3(), &poly)
+        })
+        .collect();
+    let size = poly
+        .iter()
+        .map(|v| (*v - poly[0]).length())
+        .fold(0.0, f64::max);
+    let centre = src.centre.as_dvec3();
+    mesh.elements
+        .par_iter()
+        .map(|e| {
+            let coplanar = e.normal.as_dvec3().dot(n_src).abs() > 1.0 - 1e-6
+                && (e.centre.as_dvec3() - centre).dot(n_src).abs() <= 1e-6 * size;
+            if e.patch == src.patch || coplanar {
+                return 0.0;
+            }
+            let corners = e.corners();
+            let mean =
+                corners.iter().map(|&v| per_vertex[v as usize]).sum::<f64>() / corners.len() as f64;
+            (mean * f64::from(e.area) / a_src) as f32
+        })
+        .collect()
 }
 
 #[cfg(test)]

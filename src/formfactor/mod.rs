@@ -1,5 +1,7 @@
-//! Form factors: the GPU hemicube's CPU side (frames, delta form factors)
-//! and the exact unoccluded point/polygon forms that judge it.
+//! Form factors: the GPU hemicube's CPU side (frames, delta form factors),
+//! the exact unoccluded point/polygon forms that judge it, and CPU element
+//! form factors (exact unoccluded, and ray-traced with occlusion).
 
 pub mod analytic;
 pub mod hemicube;
+pub mod raytrace;
