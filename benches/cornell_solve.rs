@@ -42,6 +42,7 @@ fn main() {
         hemicube_res: res,
         converge: 1e-3,
         max_shots,
+        ..Default::default()
     };
     println!(
         "cornell_solve: {} ({}), {} elements, {} triangles, hemicube {res}px, converge 1e-3",

@@ -13,7 +13,7 @@ use glam::Vec3;
 
 use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
 use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::solve::{patch_form_factors, SolveSettings};
+use vkrad::solve::{patch_form_factors, FormFactorMethod, SolveSettings};
 
 #[derive(Parser)]
 #[command(
@@ -63,6 +63,31 @@ struct MeshArgs {
     /// Hemicube top-face resolution in pixels (even, 2..8192).
     #[arg(long, default_value_t = 256, value_name = "PIXELS")]
     hemicube_res: u32,
+    /// Form factors: GPU hemicube, CPU ray tracing (vertex-to-source), or
+    /// exact unoccluded point-to-polygon (scenes where nothing blocks).
+    #[arg(long, value_enum, default_value_t = FfArg::Hemicube)]
+    ff: FfArg,
+    /// Rays per receiver vertex for --ff raytrace.
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    rays: usize,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum FfArg {
+    Hemicube,
+    Raytrace,
+    Analytic,
+}
+
+impl MeshArgs {
+    fn method(&self) -> Result<FormFactorMethod> {
+        Ok(match self.ff {
+            FfArg::Hemicube => FormFactorMethod::Hemicube,
+            FfArg::Raytrace if self.rays == 0 => bail!("--rays must be at least 1"),
+            FfArg::Raytrace => FormFactorMethod::RayTrace { rays: self.rays },
+            FfArg::Analytic => FormFactorMethod::Analytic,
+        })
+    }
 }
 
 #[derive(Args)]
@@ -214,6 +239,7 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     job.max_edge = args.mesh.max_edge;
     job.solve = SolveSettings {
+        method: args.mesh.method()?,
         hemicube_res: args.mesh.hemicube_res,
         converge: args.converge,
         max_shots: args.max_shots,

@@ -28,6 +28,7 @@ fn closed_room(rho: f32) -> Balance {
         hemicube_res: 64,
         converge: 1e-5,
         max_shots: 20_000,
+        ..Default::default()
     };
     let sol = solve(&device, &s, &mesh, &settings, |_| true).unwrap();
     assert_validation_clean(&device);

@@ -33,6 +33,7 @@ fn cornell_box_matches_golden_image() {
         hemicube_res: 96,
         converge: 5e-3,
         max_shots: 20_000,
+        ..Default::default()
     };
     let report = run_render(&job, Some(device.clone()), |_| true).unwrap();
     common::assert_validation_clean(&device);

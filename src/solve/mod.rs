@@ -6,4 +6,6 @@ pub mod patch_matrix;
 pub mod progressive;
 
 pub use patch_matrix::{patch_form_factors, PatchFormFactors};
-pub use progressive::{area_mean, solve, GpuMesh, Progress, Solution, SolveSettings};
+pub use progressive::{
+    area_mean, solve, CpuFormFactors, FormFactorMethod, GpuMesh, Progress, Solution, SolveSettings,
+};

@@ -7,15 +7,41 @@ use glam::Vec3;
 
 use super::heap::IndexedMaxHeap;
 use crate::error::{Error, Result};
+use crate::formfactor::analytic::element_form_factors_analytic;
 use crate::formfactor::hemicube::Hemicube;
+use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::hemicube::{HemicubeEngine, HemicubeInputs, ItemVertex};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
+/// Where each shot's form factors come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FormFactorMethod {
+    /// GPU hemicube at the shooter's centre (thesis 2.3.1).
+    Hemicube,
+    /// CPU rays from every receiver vertex to stratified points on the
+    /// shooter (thesis 2.3.2, Wallace et al. 1989), `rays` per vertex.
+    RayTrace { rays: usize },
+    /// Exact point-to-polygon form factors at receiver vertices, ignoring
+    /// occlusion: correct only for scenes where nothing blocks anything.
+    Analytic,
+}
+
+impl FormFactorMethod {
+    pub fn name(&self) -> String {
+        match self {
+            FormFactorMethod::Hemicube => "hemicube".into(),
+            FormFactorMethod::RayTrace { rays } => format!("raytrace ({rays} rays)"),
+            FormFactorMethod::Analytic => "analytic (unoccluded)".into(),
+        }
+    }
+}
+
 /// How to solve.
 #[derive(Debug, Clone, Copy)]
 pub struct SolveSettings {
+    pub method: FormFactorMethod,
     /// Hemicube top-face resolution in pixels (even).
     pub hemicube_res: u32,
     /// Stop when the unshot power is below this fraction of the emitted power.
@@ -27,6 +53,7 @@ pub struct SolveSettings {
 impl Default for SolveSettings {
     fn default() -> Self {
         SolveSettings {
+            method: FormFactorMethod::Hemicube,
             hemicube_res: 256,
             converge: 1e-3,
             max_shots: 100_000,
@@ -125,6 +152,53 @@ fn near_plane(area: f32) -> f32 {
     1e-4 * area.sqrt()
 }
 
+/// Form factors computed on the CPU for one shooter at a time.
+pub enum CpuFormFactors<'a> {
+    RayTrace {
+        tracer: RayTracedFormFactors<'a>,
+        rays: usize,
+    },
+    Analytic {
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+    },
+}
+
+impl<'a> CpuFormFactors<'a> {
+    /// `None` for the GPU hemicube.
+    pub fn new(scene: &'a Scene, mesh: &'a Mesh, method: FormFactorMethod) -> Option<Self> {
+        match method {
+            FormFactorMethod::Hemicube => None,
+            FormFactorMethod::RayTrace { rays } => Some(CpuFormFactors::RayTrace {
+                tracer: RayTracedFormFactors::new(scene, mesh),
+                rays,
+            }),
+            FormFactorMethod::Analytic => Some(CpuFormFactors::Analytic { scene, mesh }),
+        }
+    }
+
+    /// F(shooter -> every element). `salt` varies the ray pattern per shot.
+    pub fn from_shooter(&self, shooter: usize, salt: u64) -> Vec<f32> {
+        match self {
+            CpuFormFactors::RayTrace { tracer, rays } => tracer.from_shooter(
+                shooter,
+                *rays,
+                salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ shooter as u64,
+            ),
+            CpuFormFactors::Analytic { scene, mesh } => {
+                element_form_factors_analytic(scene, mesh, shooter)
+            }
+        }
+    }
+
+    pub fn stage_name(&self) -> &'static str {
+        match self {
+            CpuFormFactors::RayTrace { .. } => "ray-traced form factors (CPU)",
+            CpuFormFactors::Analytic { .. } => "analytic form factors (CPU)",
+        }
+    }
+}
+
 /// Solves the scene by progressive refinement until the residual falls
 /// below `settings.converge` or `settings.max_shots` shots were made, or
 /// `keep_going` returns false (an interrupt).
@@ -152,6 +226,8 @@ pub fn solve(
         return Err(Error::Invalid("the scene emits no power".into()));
     }
     let mut heap = IndexedMaxHeap::from_keys(keys);
+    let cpu_form_factors = CpuFormFactors::new(scene, mesh, settings.method);
+    let mut cpu_times = StageTimes::default();
     let mut unshot_power = emitted_power;
     let mut residual_history = vec![1.0];
     let mut shots = 0;
@@ -171,9 +247,19 @@ pub fn solve(
             break;
         }
         let e = &mesh.elements[shooter];
-        let faces = hemicube.face_view_proj(e.centre, e.normal, near_plane(e.area));
-        let u = unshot[shooter];
-        let after = engine.shoot(&faces, shooter as u32, [u[0], u[1], u[2]], e.area)?;
+        let u = [unshot[shooter][0], unshot[shooter][1], unshot[shooter][2]];
+        let after = match &cpu_form_factors {
+            None => {
+                let faces = hemicube.face_view_proj(e.centre, e.normal, near_plane(e.area));
+                engine.shoot(&faces, shooter as u32, u, e.area)?
+            }
+            Some(cpu) => {
+                let t = Instant::now();
+                let ff = cpu.from_shooter(shooter, shots as u64);
+                cpu_times.add(cpu.stage_name(), t.elapsed());
+                engine.shoot_with(&ff, shooter as u32, u, e.area)?
+            }
+        };
         // Re-key only what changed; sum the unshot power afresh so rounding
         // cannot drift.
         unshot_power = 0.0;
@@ -208,7 +294,11 @@ pub fn solve(
         interrupted,
         residual_history,
         emitted_power,
-        times: engine.times.clone(),
+        times: {
+            let mut times = engine.times.clone();
+            times.merge(&cpu_times);
+            times
+        },
         wall_seconds: start.elapsed().as_secs_f64(),
     })
 }
