@@ -155,7 +155,8 @@ pub fn load_builtin(name: &str) -> Option<Result<Scene>> {
 /// Loads an OBJ file and the MTL files its `mtllib` statements name
 /// (relative to the OBJ's folder).
 pub fn load(path: &Path) -> Result<Scene> {
-    let obj = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let obj = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let obj = decode(path, obj)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let name = path
         .file_stem()
@@ -163,11 +164,43 @@ pub fn load(path: &Path) -> Result<Scene> {
         .unwrap_or_else(|| path.display().to_string());
     load_text(path.to_path_buf(), name, &obj, &|lib: &str| {
         let mtl_path = dir.join(lib);
-        match std::fs::read_to_string(&mtl_path) {
-            Ok(text) => Ok((mtl_path, Some(text))),
+        match std::fs::read(&mtl_path) {
+            Ok(bytes) => {
+                let text = decode(&mtl_path, bytes)?;
+                Ok((mtl_path, Some(text)))
+            }
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok((mtl_path, None)),
             Err(e) => Err(Error::io(&mtl_path, e)),
         }
+    })
+}
+
+/// File bytes as text; bytes that are not UTF-8 are an error naming the
+/// line, since an OBJ or MTL file is text.
+fn decode(path: &Path, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|e| {
+        let bytes = e.as_bytes();
+        let at = e.utf8_error().valid_up_to();
+        let before = &bytes[..at];
+        let line = 1 + before
+            .iter()
+            .enumerate()
+            .filter(|&(i, &b)| b == b'\n' || (b == b'\r' && before.get(i + 1) != Some(&b'\n')))
+            .count();
+        let column = 1 + before
+            .iter()
+            .rev()
+            .take_while(|&&b| b != b'\n' && b != b'\r')
+            .count();
+        Error::scene(
+            path,
+            line,
+            format!(
+                "byte 0x{:02x} in column {column} is not UTF-8 text: this does not look like an OBJ/MTL text file",
+                bytes[at]
+            ),
+            Some("OBJ and MTL files are text; check the file name, or re-export it as plain (ASCII/UTF-8) text"),
+        )
     })
 }
 
@@ -234,7 +267,19 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
             continue;
         }
         libs_read.push(&lib.name);
-        let (path, text) = resolve(&lib.name)?;
+        let (path, text) = resolve(&lib.name).map_err(|e| match e {
+            Error::Io { path, source: io } => Error::scene(
+                &source,
+                lib.line,
+                format!(
+                    "cannot read material library \"{}\" ({}): {io}",
+                    lib.name,
+                    path.display()
+                ),
+                Some("`mtllib` must name an MTL file (relative to the OBJ's folder) that can be read"),
+            ),
+            other => other,
+        })?;
         let Some(text) = text else {
             return Err(Error::scene(
                 &source,
@@ -266,6 +311,14 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         }
     }
 
+    if obj.trim().is_empty() {
+        return Err(Error::scene(
+            &source,
+            0,
+            "the file is empty",
+            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
+        ));
+    }
     if scan.faces.is_empty() {
         return Err(Error::scene(
             &source,
@@ -362,12 +415,95 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         ));
     }
 
-    Ok(Scene {
+    // Emitted power pi * L_e * A must stay well inside single precision: the
+    // solver sums and compares it per element.
+    let mut power = vec![0.0f64; materials.len()];
+    for p in &patches {
+        let le = materials[p.material].emission.max_element();
+        power[p.material] += std::f64::consts::PI * f64::from(le) * f64::from(p.area);
+    }
+    let total: f64 = power.iter().sum();
+    if total.is_nan() || total > MAX_EMITTED_POWER {
+        let (m, _) =
+            power.iter().enumerate().fold(
+                (0, f64::NEG_INFINITY),
+                |b, (i, &x)| if x > b.1 { (i, x) } else { b },
+            );
+        let (file, line) = defined_at.get(m).cloned().unwrap_or((source.clone(), 0));
+        return Err(Error::scene(
+            &file,
+            line,
+            format!(
+                "material \"{}\": emitted power (pi x Ke x area) {:e} is too large for single precision (the scene's total must stay below {MAX_EMITTED_POWER:e})",
+                materials[m].name, power[m]
+            ),
+            Some("lower its Ke, or scale the scene down"),
+        ));
+    }
+
+    let mut scene = Scene {
         name,
         source,
         patches,
         materials,
         camera: scan.camera.map(|(c, _)| c),
         warnings,
-    })
+    };
+    let dark = emitters_lighting_nothing(&scene);
+    for (line, count) in dark {
+        scene.warnings.push(format!(
+            "{}:{line}: the emitter face on this line{} faces away from every other face: no light from it reaches the front of any surface (the image will be dark); check its vertex order (counter-clockwise seen from the front)",
+            scene.source.display(),
+            if count > 1 { format!(" ({count} pieces)") } else { String::new() }
+        ));
+    }
+    Ok(scene)
+}
+
+/// Total emitted power above which a scene is rejected (f32 max is 3.4e38).
+const MAX_EMITTED_POWER: f64 = 1e30;
+
+/// Emitter patches whose light can reach the front of no other patch: no
+/// vertex of any other patch lies in front of the emitter's plane with a
+/// vertex of the emitter in front of its own plane (necessary for any form
+/// factor between the two fronts). Returns (OBJ line, pieces) per face.
+/// Skipped (empty) for scenes where the pairwise test would be too slow.
+fn emitters_lighting_nothing(scene: &Scene) -> Vec<(usize, usize)> {
+    let emitters: Vec<usize> = (0..scene.patches.len())
+        .filter(|&i| scene.material_of(&scene.patches[i]).is_emitter())
+        .collect();
+    if emitters.len().saturating_mul(scene.patches.len()) > 50_000_000 {
+        return Vec::new();
+    }
+    let eps = 1e-6 * f64::from(scene.extent());
+    let in_front = |of: &Patch, points: &[Vec3]| {
+        let n = of.normal.as_dvec3();
+        let o = of.vertices[0].as_dvec3();
+        points.iter().any(|q| (q.as_dvec3() - o).dot(n) > eps)
+    };
+    let mut dark: Vec<(usize, usize)> = Vec::new();
+    for &e in &emitters {
+        let pe = &scene.patches[e];
+        let lit = scene
+            .patches
+            .iter()
+            .enumerate()
+            .any(|(j, q)| j != e && in_front(pe, &q.vertices) && in_front(q, &pe.vertices));
+        if !lit {
+            match dark.last_mut() {
+                Some((line, count)) if *line == pe.line => *count += 1,
+                _ => dark.push((pe.line, 1)),
+            }
+        }
+    }
+    // Only faces all of whose pieces are dark.
+    dark.retain(|&(line, count)| {
+        scene
+            .patches
+            .iter()
+            .filter(|p| p.line == line && scene.material_of(p).is_emitter())
+            .count()
+            == count
+    });
+    dark
 }

@@ -40,7 +40,7 @@ pub(crate) fn read(file: &Path, text: &str, warnings: &mut Vec<String>) -> Resul
     // and tobj never sees a statement it might reject.
     let mut blocks: Vec<Block> = Vec::new();
     let mut clean = String::with_capacity(text.len());
-    for (i, raw) in text.lines().enumerate() {
+    for (i, raw) in super::objscan::split_lines(text).enumerate() {
         let line_no = i + 1;
         let raw = if i == 0 {
             raw.trim_start_matches('\u{feff}')
@@ -93,8 +93,9 @@ pub(crate) fn read(file: &Path, text: &str, warnings: &mut Vec<String>) -> Resul
                     .collect::<std::result::Result<Vec<f32>, _>>()
                     .map_err(|w| {
                         err(format!(
-                            "`{keyword}` of material \"{}\": `{w}` is not a number (spectral and xyz colours are not supported)",
-                            block.name
+                            "`{keyword}` of material \"{}\": `{}` is not a number (spectral and xyz colours are not supported)",
+                            block.name,
+                            super::objscan::shown(w)
                         ))
                     })?;
                 let rgb = match numbers.len() {

@@ -50,7 +50,7 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
     let mut out = ObjScan::default();
     let mut name = String::new();
     let mut usemtl: Option<usize> = None;
-    for (i, raw) in text.lines().enumerate() {
+    for (i, raw) in split_lines(text).enumerate() {
         let line_no = i + 1;
         let raw = if i == 0 {
             raw.trim_start_matches('\u{feff}')
@@ -83,7 +83,7 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
             "v" => out.positions.push(parse_vertex(words.collect()).map_err(|what| {
                 err(
                     what,
-                    "a vertex reads `v X Y Z` with three finite numbers (an optional fourth is the weight w)",
+                    "a vertex reads `v X Y Z` with three finite numbers within \u{b1}1e9 (an optional fourth is the weight w, or three more are a colour)",
                 )
             })?),
             "f" => {
@@ -95,6 +95,15 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
                             refs.len()
                         ),
                         "remove the line, or list 3 or more vertex indices (`f 1 2 3`)",
+                    ));
+                }
+                if refs.len() > MAX_FACE_VERTICES {
+                    return Err(err(
+                        format!(
+                            "a face with {} vertices; vkrad takes at most {MAX_FACE_VERTICES}",
+                            refs.len()
+                        ),
+                        "split the polygon into smaller faces (triangles or quads) in the modelling tool",
                     ));
                 }
                 let count = out.positions.len();
@@ -148,21 +157,75 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
     Ok(out)
 }
 
+/// Largest coordinate magnitude accepted. The solver and renderer work in
+/// single precision (f32, max 3.4e38) and square areas and distances: with
+/// coordinates within 1e9 a face's area is below 1e19 and its square stays
+/// finite.
+pub(crate) const MAX_COORDINATE: f64 = 1e9;
+
+/// Most vertices in one face: validation and ear clipping are quadratic to
+/// cubic in the vertex count.
+pub(crate) const MAX_FACE_VERTICES: usize = 256;
+
+/// Splits text into lines ended by `\n`, `\r\n` or a lone `\r` (old Mac
+/// files), so that line numbers match what editors show.
+pub(crate) fn split_lines(text: &str) -> impl Iterator<Item = &str> {
+    let mut rest = Some(text);
+    std::iter::from_fn(move || {
+        let r = rest?;
+        if r.is_empty() {
+            rest = None;
+            return None;
+        }
+        match r.find(['\n', '\r']) {
+            Some(i) => {
+                let skip = if r[i..].starts_with("\r\n") { 2 } else { 1 };
+                rest = Some(&r[i + skip..]);
+                Some(&r[..i])
+            }
+            None => {
+                rest = None;
+                Some(r)
+            }
+        }
+    })
+}
+
+/// A word for a message: control characters (NUL, ...) escaped.
+pub(crate) fn shown(word: &str) -> String {
+    word.escape_debug().to_string()
+}
+
 fn parse_number(word: &str) -> std::result::Result<f64, String> {
     let x: f64 = word
         .parse()
-        .map_err(|_| format!("`{word}` is not a number"))?;
-    if x.is_finite() {
-        Ok(x)
-    } else {
-        Err(format!("`{word}` is not a finite number"))
+        .map_err(|_| format!("`{}` is not a number", shown(word)))?;
+    if !x.is_finite() {
+        return Err(format!("`{}` is not a finite number", shown(word)));
     }
+    Ok(x)
+}
+
+fn check_magnitude(p: DVec3) -> std::result::Result<DVec3, String> {
+    let m = p.abs().max_element();
+    if m > MAX_COORDINATE {
+        return Err(format!(
+            "coordinate {m:e} is too large: vkrad computes in single precision and takes coordinates within \u{b1}{MAX_COORDINATE:e} (scale the scene down, e.g. metres instead of millimetres)"
+        ));
+    }
+    Ok(p)
 }
 
 fn parse_vertex(words: Vec<&str>) -> std::result::Result<DVec3, String> {
     if words.len() < 3 {
         return Err(format!(
             "a vertex needs 3 coordinates, this one has {}",
+            words.len()
+        ));
+    }
+    if !matches!(words.len(), 3 | 4 | 6 | 7) {
+        return Err(format!(
+            "a vertex has 3 coordinates (4 with a weight w, 6 or 7 with a colour), this one has {} numbers",
             words.len()
         ));
     }
@@ -181,9 +244,9 @@ fn parse_vertex(words: Vec<&str>) -> std::result::Result<DVec3, String> {
         if !q.is_finite() {
             return Err("vertex divided by its weight w is not finite".into());
         }
-        return Ok(q);
+        return check_magnitude(q).map_err(|e| format!("after division by the weight w: {e}"));
     }
-    Ok(p)
+    check_magnitude(p)
 }
 
 /// Resolves one face vertex reference (`v`, `v/vt`, `v/vt/vn`, `v//vn`)
@@ -192,7 +255,7 @@ fn resolve_index(word: &str, count: usize) -> std::result::Result<usize, String>
     let v = word.split('/').next().unwrap_or(word);
     let i: i64 = v
         .parse()
-        .map_err(|_| format!("`{word}` is not a vertex index"))?;
+        .map_err(|_| format!("`{}` is not a vertex index", shown(word)))?;
     let defined = if count == 1 {
         "1 vertex is defined above this line".to_owned()
     } else {
@@ -226,7 +289,7 @@ fn parse_camera(words: Vec<&str>) -> std::result::Result<Camera, String> {
             .iter()
             .map(|w| parse_number(w).map_err(|e| format!("camera `{key}`: {e}")))
             .collect::<std::result::Result<Vec<_>, _>>()?;
-        Ok(DVec3::new(c[0], c[1], c[2]))
+        check_magnitude(DVec3::new(c[0], c[1], c[2])).map_err(|e| format!("camera `{key}`: {e}"))
     };
     while k < words.len() {
         let key = words[k];

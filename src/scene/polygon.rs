@@ -15,6 +15,12 @@ const SAME_POINT: f64 = 1e-9;
 const ZERO_AREA: f64 = 1e-9;
 /// Sine of the turn angle below which three vertices are collinear.
 const COLLINEAR: f64 = 1e-9;
+/// Smallest face area accepted: the mesher and solver square areas in
+/// single precision (f32, smallest normal 1.2e-38).
+pub const MIN_AREA: f64 = 1e-18;
+/// Largest shift of a vertex, relative to the face's size, that rounding
+/// its coordinates to single precision may cause.
+const ROUNDING_TOLERANCE: f64 = 1e-4;
 
 /// One planar convex piece of a face.
 #[derive(Debug, Clone, PartialEq)]
@@ -122,6 +128,22 @@ pub(crate) fn process(input: &[DVec3]) -> Result<Outcome, Rejection> {
     while v.len() > 1 && v[0].distance(v[v.len() - 1]) <= SAME_POINT * l {
         v.pop();
     }
+    // Single precision keeps about 7 digits: a face far from the origin
+    // compared to its size loses its shape when its vertices are rounded.
+    let (shift, far) = v
+        .iter()
+        .map(|p| (p.as_vec3().as_dvec3().distance(*p), p.abs().max_element()))
+        .fold((0.0f64, 0.0f64), |(s, f), (a, b)| (s.max(a), f.max(b)));
+    if shift > ROUNDING_TOLERANCE * l {
+        return Err(reject(
+            format!(
+                "the face (size {}) is too small for its distance from the origin ({far:e}) to be kept in single precision: rounding moves a vertex by {}",
+                fmt_len(l),
+                fmt_len(shift)
+            ),
+            "move the scene close to the origin (subtract its centre from every vertex), or model it in smaller units",
+        ));
+    }
     let repeats = input.len() - v.len();
     if v.len() < 3 {
         return Err(reject(
@@ -155,6 +177,15 @@ pub(crate) fn process(input: &[DVec3]) -> Result<Outcome, Rejection> {
         return Err(reject(
             format!("degenerate face: zero area ({why})"),
             DEGENERATE_HINT,
+        ));
+    }
+    if n2.length() / 2.0 < MIN_AREA {
+        return Err(reject(
+            format!(
+                "the face's area {:e} is too small for single precision (at least {MIN_AREA:e} is needed)",
+                n2.length() / 2.0
+            ),
+            "scale the scene up (e.g. model in millimetres instead of metres)",
         ));
     }
 
@@ -260,6 +291,18 @@ pub(crate) fn process(input: &[DVec3]) -> Result<Outcome, Rejection> {
             .map(|t| piece(&[v[t[0]], v[t[1]], v[t[2]]]))
             .collect()
     };
+    if let Some(p) = pieces
+        .iter()
+        .find(|p| !(p.area.is_finite() && f64::from(p.area) >= MIN_AREA))
+    {
+        return Err(reject(
+            format!(
+                "a piece of the face has area {:e}, too small for single precision (at least {MIN_AREA:e} is needed)",
+                p.area
+            ),
+            "scale the scene up, or split the face into better-shaped triangles",
+        ));
+    }
     Ok(Outcome { pieces, warnings })
 }
 
