@@ -86,6 +86,8 @@ pub struct RenderReport {
     pub exposure: f32,
     pub output: PathBuf,
     pub export: Option<PathBuf>,
+    /// Things the user should know about the result (besides scene warnings).
+    pub warnings: Vec<String>,
     /// Wall time per stage: load, mesh, solve, render, write.
     pub wall: Vec<(&'static str, f64)>,
     /// GPU time per pass (timestamps) across solve and render.
@@ -170,6 +172,7 @@ impl RenderReport {
                 "patches": self.scene.patches.len(),
                 "materials": self.scene.materials.len(),
                 "warnings": self.scene.warnings,
+                "run_warnings": self.warnings,
                 "emitted_power": s.emitted_power,
             },
             "mesh": {
@@ -251,6 +254,24 @@ pub fn run_render(
     let t = Instant::now();
     let solution = solve(&device, &scene, &mesh, &job.solve, on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
+    let mut warnings = Vec::new();
+    let received: f64 = mesh
+        .elements
+        .iter()
+        .zip(&solution.radiosity)
+        .filter(|(e, _)| {
+            !scene
+                .material_of(&scene.patches[e.patch as usize])
+                .is_emitter()
+        })
+        .map(|(e, b)| (b[0] + b[1] + b[2]) as f64 * e.area as f64)
+        .sum();
+    if received <= 0.0 && solution.shots > 0 {
+        warnings.push(
+            "no light reached any non-emitting surface: the image shows only the emitters (is the light blocked, or facing away?)"
+                .to_string(),
+        );
+    }
 
     let t = Instant::now();
     let mut gpu_times = solution.times.clone();
@@ -287,6 +308,7 @@ pub fn run_render(
         exposure,
         output,
         export: job.export.clone(),
+        warnings,
         wall,
         gpu_times,
     })

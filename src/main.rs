@@ -375,7 +375,7 @@ fn print_summary(r: &RenderReport, profile: bool) {
         emitters,
         r.scene.materials.len()
     );
-    for w in &r.scene.warnings {
+    for w in r.scene.warnings.iter().chain(&r.warnings) {
         println!("  warning   {w}");
     }
     println!(

@@ -225,3 +225,33 @@ fn ctrl_c_stops_cleanly_and_writes_the_partial_result() {
     assert!(report["solve"]["shots"].as_u64().unwrap() > 0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn blocked_light_warns_that_nothing_was_lit() {
+    // The light (y = 2, facing down) shines onto the back of an occluder
+    // (y = 1.9, also facing down), which hides the floor: nothing can receive.
+    let dir = temp_dir("blocked");
+    let obj = "mtllib scene.mtl\n\
+        v 0.4 2 0.4\nv 0.6 2 0.4\nv 0.6 2 0.6\nv 0.4 2 0.6\n\
+        v -5 1.9 -5\nv 5 1.9 -5\nv 5 1.9 5\nv -5 1.9 5\n\
+        v -5 0 -5\nv -5 0 5\nv 5 0 5\nv 5 0 -5\n\
+        usemtl light\nf 1 2 3 4\nusemtl white\nf 5 6 7 8\nf 9 10 11 12\n";
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    std::fs::write(dir.join("scene.mtl"), MTL).unwrap();
+    let out = vkrad(
+        &[
+            "scene.obj",
+            "-o",
+            "out.png",
+            "--size",
+            "16x16",
+            "--hemicube-res",
+            "16",
+        ],
+        &dir,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(summary.contains("no light reached"), "{summary}");
+    std::fs::remove_dir_all(&dir).ok();
+}

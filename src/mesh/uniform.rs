@@ -99,23 +99,25 @@ fn longest_edge(points: &[Vec3]) -> f32 {
 
 /// Area and area centroid of a planar convex polygon (fan from point 0).
 pub(crate) fn polygon_area_centroid(points: &[Vec3]) -> (f32, Vec3) {
-    let p0 = points[0];
-    let mut area_vec = Vec3::ZERO;
-    let mut weighted = Vec3::ZERO;
+    // f64: the cross product squares lengths, which overflows or underflows
+    // f32 for faces far from unit size.
+    let p0 = points[0].as_dvec3();
+    let mut area_vec = glam::DVec3::ZERO;
+    let mut weighted = glam::DVec3::ZERO;
     for k in 1..points.len().saturating_sub(1) {
-        let a = points[k] - p0;
-        let b = points[k + 1] - p0;
+        let a = points[k].as_dvec3() - p0;
+        let b = points[k + 1].as_dvec3() - p0;
         let tri = 0.5 * a.cross(b);
         area_vec += tri;
         weighted += tri.length() * (p0 + (a + b) / 3.0);
     }
     let area = area_vec.length();
     let centre = if area > 0.0 {
-        weighted / area
+        (weighted / area).as_vec3()
     } else {
         points.iter().copied().sum::<Vec3>() / points.len() as f32
     };
-    (area, centre)
+    (area as f32, centre)
 }
 
 fn push_element(mesh: &mut Mesh, patch: u32, normal: Vec3, corners: &[u32]) {

@@ -155,7 +155,7 @@ fn near_plane(area: f32) -> f32 {
 /// Form factors computed on the CPU for one shooter at a time.
 pub enum CpuFormFactors<'a> {
     RayTrace {
-        tracer: RayTracedFormFactors<'a>,
+        tracer: Box<RayTracedFormFactors<'a>>,
         rays: usize,
     },
     Analytic {
@@ -170,7 +170,7 @@ impl<'a> CpuFormFactors<'a> {
         match method {
             FormFactorMethod::Hemicube => None,
             FormFactorMethod::RayTrace { rays } => Some(CpuFormFactors::RayTrace {
-                tracer: RayTracedFormFactors::new(scene, mesh),
+                tracer: Box::new(RayTracedFormFactors::new(scene, mesh)),
                 rays,
             }),
             FormFactorMethod::Analytic => Some(CpuFormFactors::Analytic { scene, mesh }),
@@ -222,6 +222,11 @@ pub fn solve(
         .map(|(u, &a)| power(*u, a) as f32)
         .collect();
     let emitted_power: f64 = keys.iter().map(|&k| k as f64).sum();
+    if !keys.iter().all(|k| k.is_finite()) || !emitted_power.is_finite() {
+        return Err(Error::Invalid(
+            "the emitted power is not a finite number; lower the emitters' Ke".into(),
+        ));
+    }
     if emitted_power <= 0.0 {
         return Err(Error::Invalid("the scene emits no power".into()));
     }
@@ -266,7 +271,13 @@ pub fn solve(
         for (j, (new, old)) in after.iter().zip(unshot.iter_mut()).enumerate() {
             if new != old {
                 *old = *new;
-                heap.set_key(j, power(*new, areas[j]) as f32);
+                let key = power(*new, areas[j]) as f32;
+                if !key.is_finite() {
+                    return Err(Error::Invalid(format!(
+                        "element {j}'s unshot power became {key} after {shots} shots (numeric overflow)"
+                    )));
+                }
+                heap.set_key(j, key);
             }
             unshot_power += power(*new, areas[j]);
         }
