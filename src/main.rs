@@ -13,7 +13,7 @@ use glam::Vec3;
 
 use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
 use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::solve::{patch_form_factors, FormFactorMethod, SolveSettings};
+use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
 
 #[derive(Parser)]
 #[command(
@@ -454,20 +454,28 @@ fn formfactors(args: FormFactorArgs) -> Result<()> {
         .max_edge
         .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene));
     let mesh = vkrad::mesh::uniform(&scene, max_edge);
-    let device = Device::new(&DeviceOptions {
-        selector: args.gpu.device.clone(),
-        validate: args.gpu.validate,
-    })?;
+    let method = args.mesh.method()?;
     let show_progress = std::io::stderr().is_terminal();
-    let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, |done, n| {
+    let progress = |done: usize, n: usize| {
         if show_progress {
             eprint!("\r  patch {done}/{n}   ");
         }
-    })?;
+    };
+    let ff = match method {
+        FormFactorMethod::Hemicube => {
+            let device = Device::new(&DeviceOptions {
+                selector: args.gpu.device.clone(),
+                validate: args.gpu.validate,
+            })?;
+            let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, progress)?;
+            device.check_validation()?;
+            ff
+        }
+        _ => patch_form_factors_cpu(&scene, &mesh, method, progress)?,
+    };
     if show_progress {
         eprint!("\r{:40}\r", "");
     }
-    device.check_validation()?;
     let names: Vec<String> = scene
         .patches
         .iter()
@@ -497,8 +505,9 @@ fn formfactors(args: FormFactorArgs) -> Result<()> {
             .collect();
         let doc = serde_json::json!({
             "scene": scene.source.display().to_string(),
-            "method": "hemicube",
+            "method": method.name(),
             "hemicube_res": args.mesh.hemicube_res,
+            "rays": args.mesh.rays,
             "max_edge": max_edge,
             "elements": mesh.elements.len(),
             "definition": "F[i][j]: fraction of the power leaving patch i (uniform, diffuse) that arrives at patch j; average over patch i (thesis eq. 2.7)",
@@ -508,8 +517,11 @@ fn formfactors(args: FormFactorArgs) -> Result<()> {
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         println!(
-            "form factors F[i][j] by hemicube ({}px, {} elements); rows: from patch i",
-            args.mesh.hemicube_res,
+            "form factors F[i][j] by {} ({} elements); rows: from patch i",
+            match method {
+                FormFactorMethod::Hemicube => format!("hemicube {}px", args.mesh.hemicube_res),
+                m => m.name(),
+            },
             mesh.elements.len()
         );
         for (i, row) in ff.matrix.iter().enumerate() {

@@ -255,3 +255,48 @@ fn blocked_light_warns_that_nothing_was_lit() {
     assert!(summary.contains("no light reached"), "{summary}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The three methods through `vkrad formfactors`: hemicube and ray tracing
+/// agree on the occluded light-to-floor factor of the simple scene; the
+/// analytic (unoccluded) value is larger by the blocker's shadow.
+#[test]
+fn formfactor_methods_agree_where_they_should() {
+    let dir = temp_dir("ffmethods");
+    let light_to_floor = |ff: &str| -> f64 {
+        let out = vkrad(&["formfactors", "simple", "--json", "--ff", ff], &dir);
+        assert!(out.status.success(), "{ff}: {}", stderr(&out));
+        let doc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let patches = doc["patches"].as_array().unwrap();
+        let by_area = |pick_max: bool| {
+            (0..patches.len())
+                .max_by(|&a, &b| {
+                    let (x, y) = (
+                        patches[a]["area"].as_f64().unwrap(),
+                        patches[b]["area"].as_f64().unwrap(),
+                    );
+                    if pick_max {
+                        x.total_cmp(&y)
+                    } else {
+                        y.total_cmp(&x)
+                    }
+                })
+                .unwrap()
+        };
+        // Light: the smallest patch; floor: the largest.
+        doc["form_factors"][by_area(false)][by_area(true)]
+            .as_f64()
+            .unwrap()
+    };
+    let hemicube = light_to_floor("hemicube");
+    let raytrace = light_to_floor("raytrace");
+    let analytic = light_to_floor("analytic");
+    assert!(
+        (hemicube - raytrace).abs() / raytrace < 0.02,
+        "{hemicube} vs {raytrace}"
+    );
+    assert!(
+        analytic > raytrace * 1.05,
+        "blocker shadow missing: {analytic} vs {raytrace}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -5,7 +5,7 @@ pub mod heap;
 pub mod patch_matrix;
 pub mod progressive;
 
-pub use patch_matrix::{patch_form_factors, PatchFormFactors};
+pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};
 pub use progressive::{
     area_mean, solve, CpuFormFactors, FormFactorMethod, GpuMesh, Progress, Solution, SolveSettings,
 };

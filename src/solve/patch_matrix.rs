@@ -11,7 +11,8 @@ use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
-use super::progressive::GpuMesh;
+use super::progressive::{CpuFormFactors, FormFactorMethod, GpuMesh};
+use crate::formfactor::analytic::polygon_to_polygon;
 
 /// F_ij for all input patches, in file order.
 #[derive(Debug, Clone)]
@@ -54,4 +55,68 @@ pub fn patch_form_factors(
         matrix,
         times: engine.times.clone(),
     })
+}
+
+/// The patch matrix by a CPU method: `Analytic` integrates the exact
+/// unoccluded point-to-polygon form factor over patch i (Gauss-Legendre,
+/// eq. 2.7 directly); `RayTrace` shoots from every element k and uses
+/// F_ij = (1/A_i) sum_{k in j} A_k sum_{e in i} F_{k->e} (reciprocity turns
+/// "from each shooter element to receivers of i" into "from i to j").
+pub fn patch_form_factors_cpu(
+    scene: &Scene,
+    mesh: &Mesh,
+    method: FormFactorMethod,
+    mut on_patch: impl FnMut(usize, usize),
+) -> Result<PatchFormFactors> {
+    let n = scene.patches.len();
+    let mut matrix = vec![vec![0.0f64; n]; n];
+    let mut times = StageTimes::default();
+    let start = std::time::Instant::now();
+    match method {
+        FormFactorMethod::Hemicube => {
+            return Err(Error::Invalid(
+                "the hemicube matrix needs the GPU: use patch_form_factors".into(),
+            ))
+        }
+        FormFactorMethod::Analytic => {
+            let polygons: Vec<Vec<glam::DVec3>> = scene
+                .patches
+                .iter()
+                .map(|p| p.vertices.iter().map(|v| v.as_dvec3()).collect())
+                .collect();
+            for (i, row) in matrix.iter_mut().enumerate() {
+                for (j, f) in row.iter_mut().enumerate() {
+                    if i != j {
+                        *f = polygon_to_polygon(&polygons[i], &polygons[j], 16);
+                    }
+                }
+                on_patch(i + 1, n);
+            }
+            times.add("analytic form factors (CPU)", start.elapsed());
+        }
+        FormFactorMethod::RayTrace { .. } => {
+            let cpu = CpuFormFactors::new(scene, mesh, method)
+                .ok_or_else(|| Error::Invalid("ray tracing needs a CPU method".into()))?;
+            for j in 0..n {
+                let range = mesh.patch_elements[j].clone();
+                for k in range.start as usize..range.end as usize {
+                    let from_k = cpu.from_shooter(k, k as u64);
+                    let a_k = mesh.elements[k].area as f64;
+                    for (e, f) in from_k.iter().enumerate() {
+                        if *f > 0.0 {
+                            let i = mesh.elements[e].patch as usize;
+                            matrix[i][j] += a_k * *f as f64;
+                        }
+                    }
+                }
+                on_patch(j + 1, n);
+            }
+            for (i, row) in matrix.iter_mut().enumerate() {
+                let a_i = scene.patches[i].area as f64;
+                row.iter_mut().for_each(|f| *f /= a_i);
+            }
+            times.add(cpu.stage_name(), start.elapsed());
+        }
+    }
+    Ok(PatchFormFactors { matrix, times })
 }
