@@ -97,8 +97,7 @@ pub fn patch_form_factors_cpu(
         FormFactorMethod::RayTrace { .. } => {
             let cpu = CpuFormFactors::new(scene, mesh, method)
                 .ok_or_else(|| Error::Invalid("ray tracing needs a CPU method".into()))?;
-            for j in 0..n {
-                let range = mesh.patch_elements[j].clone();
+            for (j, range) in mesh.patch_elements.iter().enumerate() {
                 for k in range.start as usize..range.end as usize {
                     let from_k = cpu.from_shooter(k, k as u64);
                     let a_k = mesh.elements[k].area as f64;
