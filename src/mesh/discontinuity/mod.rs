@@ -46,7 +46,7 @@ pub struct DiscontinuityOptions {
     /// Insert contact (D0) edges. Default true.
     pub contact: bool,
     /// Snap tolerance relative to a target's size (bounding-box diagonal).
-    /// Default 3e-5 (above `sanity_check`'s 1e-5 on-edge tolerance).
+    /// Default 1e-4 (above `sanity_check`'s 1e-5 on-edge tolerance).
     pub snap_relative: f64,
     /// Refinement stops adding triangles to a patch beyond this many.
     pub max_triangles_per_patch: usize,
@@ -58,7 +58,7 @@ impl Default for DiscontinuityOptions {
             max_edge: None,
             ev_events: true,
             contact: true,
-            snap_relative: 3e-5,
+            snap_relative: 1e-4,
             max_triangles_per_patch: 1 << 20,
         }
     }
@@ -84,6 +84,9 @@ pub struct DiscontinuityStats {
     /// Patches triangulated without their interior constraints after the CDT
     /// failed, and patches meshed as a plain fan (degenerate input).
     pub fallbacks: usize,
+    /// Edge flips that removed slivers (an apex within the snap tolerance of
+    /// the opposite edge).
+    pub sliver_flips: usize,
     /// Patches where refinement hit `max_triangles_per_patch`.
     pub refinement_capped: usize,
     pub vertices: usize,
@@ -295,6 +298,9 @@ pub fn discontinuity_mesh(
                 match tri {
                     Some(mut tri) => {
                         stats.constraints_dropped += tri.dropped;
+                        let sliver_tol = 0.3 * arr.snap;
+                        stats.sliver_flips +=
+                            triangulate::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
                         if let Some(m) = options.max_edge {
                             if triangulate::refine(
                                 &mut tri,
@@ -305,6 +311,8 @@ pub fn discontinuity_mesh(
                             ) {
                                 stats.refinement_capped += 1;
                             }
+                            stats.sliver_flips +=
+                                triangulate::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
                         }
                         emit(&mut mesh, p as u32, patch.normal, frame, &tri);
                     }

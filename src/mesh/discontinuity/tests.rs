@@ -104,6 +104,21 @@ fn builtin_scenes_are_sane() {
 }
 
 #[test]
+fn r_and_vise_load_cleanly_and_mesh_sanely() {
+    for (name, lo, hi) in [("r", 130, 140), ("vise", 1000, 1100)] {
+        let scene = builtin(name);
+        assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
+        assert!(scene.camera.is_some(), "{name} has a camera");
+        let n = scene.patches.len();
+        assert!((lo..=hi).contains(&n), "{name}: {n} patches");
+        let (mesh, stats) = mesh_of(&scene, &DiscontinuityOptions::default());
+        check(&scene, &mesh);
+        eprintln!("{name}: {stats:?}");
+        assert!(stats.triangles > 2 * n, "{name}: {stats:?}");
+    }
+}
+
+#[test]
 fn refinement_bounds_edges_and_stays_watertight() {
     for name in ["simple", "cornell"] {
         let scene = builtin(name);
@@ -261,4 +276,26 @@ proptest! {
         let (mesh, _) = discontinuity_mesh(&scene, &oracle, &options).map_err(TestCaseError::fail)?;
         mesh.sanity_check_watertight(&scene).map_err(TestCaseError::fail)?;
     }
+}
+
+#[test]
+#[ignore]
+fn debug_vise() {
+    let scene = builtin("vise");
+    let (mesh, _) = mesh_of(&scene, &DiscontinuityOptions::default());
+    let e = mesh.sanity_check(&scene);
+    eprintln!("{e:?}");
+    for v in [52822usize, 52823, 52824] {
+        eprintln!("{v}: {}", mesh.vertices[v]);
+    }
+    for (i, el) in mesh.elements.iter().enumerate() {
+        if el
+            .corners()
+            .iter()
+            .any(|&c| (52822..=52824).contains(&(c as usize)))
+        {
+            eprintln!("el {i}: {:?} area {}", el.corners(), el.area);
+        }
+    }
+    eprintln!("patch 22: {:?}", scene.patches[22].vertices);
 }

@@ -211,6 +211,90 @@ pub(crate) fn refine(
     capped
 }
 
+/// Removes slivers whose apex lies within `tol` of the interior of the
+/// opposite edge (which would read as a T-junction): the edge is flipped
+/// to the apex, so the path through the apex replaces it (it is within
+/// `tol` of the old edge, so a constraint keeps its course). Boundary edges
+/// are never flipped. Returns the number of flips.
+pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
+    let mut r = Refiner {
+        limit: f64::INFINITY,
+        poly,
+        snap,
+        points: std::mem::take(&mut tri.points),
+        tags: std::mem::take(&mut tri.tags),
+        tris: std::mem::take(&mut tri.triangles),
+        alive: Vec::new(),
+        edges: HashMap::new(),
+    };
+    r.alive = vec![true; r.tris.len()];
+    for t in 0..r.tris.len() {
+        r.link(t as u32);
+    }
+    let mut flips = 0;
+    let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
+    let budget = 4 * r.tris.len() + 16;
+    while let Some(t) = stack.pop() {
+        if !r.alive[t as usize] || flips >= budget {
+            continue;
+        }
+        let v = r.tris[t as usize];
+        for k in 0..3 {
+            let (a, b, w) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+            let (pa, pb, pw) = (
+                r.points[a as usize],
+                r.points[b as usize],
+                r.points[w as usize],
+            );
+            let len = pa.distance(pb);
+            if !(len > 0.0) {
+                continue;
+            }
+            let dir = (pb - pa) / len;
+            let along = (pw - pa).dot(dir);
+            let off = dir.perp_dot(pw - pa).abs();
+            if off >= tol || along <= tol || along >= len - tol {
+                continue;
+            }
+            let e = Refiner::key(a, b);
+            if r.is_boundary(e) {
+                continue;
+            }
+            let Some(nb) = r.neighbour(t, e) else {
+                continue;
+            };
+            let nv = r.tris[nb as usize];
+            let Some(&x) = nv.iter().find(|&&c| c != a && c != b) else {
+                continue;
+            };
+            let px = r.points[x as usize];
+            let n1 = [w, a, x];
+            let n2 = [w, x, b];
+            let ccw = |t: [u32; 3]| {
+                let [p, q, s] = t.map(|i| r.points[i as usize]);
+                (q - p).perp_dot(s - p) > 0.0
+            };
+            if !(ccw(n1) && ccw(n2)) || px == pw {
+                continue;
+            }
+            r.unlink(t);
+            r.unlink(nb);
+            r.tris[t as usize] = n1;
+            r.tris[nb as usize] = n2;
+            r.link(t);
+            r.link(nb);
+            flips += 1;
+            stack.push(t);
+            stack.push(nb);
+            break;
+        }
+    }
+    tri.points = r.points;
+    tri.tags = r.tags;
+    tri.triangles = r.tris;
+    flips
+}
+
 struct Refiner<'a> {
     limit: f64,
     poly: &'a [DVec2],
