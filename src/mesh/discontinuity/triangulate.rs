@@ -274,7 +274,20 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
                 let [p, q, s] = t.map(|i| r.points[i as usize]);
                 (q - p).perp_dot(s - p) > 0.0
             };
-            if !(ccw(n1) && ccw(n2)) || px == pw {
+            // Flip only when it strictly improves the worse of the two
+            // triangles (smallest altitude), so flips cannot cycle.
+            let quality = |t: [u32; 3]| {
+                let [p, q, s] = t.map(|i| r.points[i as usize]);
+                let twice = (q - p).perp_dot(s - p);
+                let longest = p.distance(q).max(q.distance(s)).max(s.distance(p));
+                if longest > 0.0 {
+                    twice / longest
+                } else {
+                    0.0
+                }
+            };
+            let before = quality(v).min(quality(nv));
+            if !(ccw(n1) && ccw(n2)) || px == pw || quality(n1).min(quality(n2)) <= before {
                 continue;
             }
             r.unlink(t);
