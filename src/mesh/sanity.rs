@@ -346,6 +346,8 @@ pub(crate) fn patch_size(vertices: &[Vec3]) -> f64 {
     }
 }
 
+// `!(x > y)` on purpose: NaN never passes.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
 /// Whether edge `a0`-`a1` lies on the line of `b0`-`b1` (within `tol`) over a
 /// common stretch longer than `tol`.
 fn collinear_overlap(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3, tol: f64) -> bool {
@@ -448,6 +450,7 @@ impl Mesh {
     /// inside (farther than 1e-5 of Q's size from the ends) a boundary edge
     /// of one of Q's elements on it. Expects `patch_elements` to be valid
     /// (run [`Mesh::sanity_check`] first). About linear in the mesh size.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN never passes
     pub fn check_cross_patch(&self, scene: &Scene) -> Result<(), String> {
         if self.patch_elements.len() != scene.patches.len() {
             return Err("patch_elements does not match the scene".into());

@@ -27,6 +27,7 @@ impl Tag {
         }
     }
 
+    #[cfg(test)]
     pub fn is_boundary(&self) -> bool {
         self.on[0].is_some()
     }

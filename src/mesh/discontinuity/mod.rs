@@ -19,6 +19,9 @@
 //! exchanged between neighbours, interior edges by conforming longest-edge
 //! bisection, so the mesh stays free of T-junctions across patches.
 
+// `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::time::{Duration, Instant};
 
 use glam::{DVec2, DVec3, Vec3};
@@ -452,7 +455,7 @@ fn emit(mesh: &mut Mesh, p: u32, normal: Vec3, frame: &Frame, tri: &triangulate:
     let base = mesh.vertices.len() as u32;
     for (q, tag) in tri.points.iter().zip(&tri.tags) {
         let x = match tag.edges().next() {
-            Some((k, t)) if t == 0.0 => frame.corners3[k as usize],
+            Some((k, 0.0)) => frame.corners3[k as usize],
             Some((k, t)) => frame.edge_point(k as usize, t),
             None => frame.to_3d(*q),
         };

@@ -322,3 +322,28 @@ fn refined_overlapping_duplicates_can_leave_a_sliver() {
     let (mesh, _) = mesh_of(&scene, &options);
     check(&scene, &mesh);
 }
+
+/// Stats and timings of the built-in scenes (run with `--release
+/// --ignored --nocapture`).
+#[test]
+#[ignore]
+fn report_builtin_stats() {
+    for name in ["simple", "cornell", "r", "vise"] {
+        let scene = builtin(name);
+        let start = std::time::Instant::now();
+        let (mesh, stats) = mesh_of(&scene, &DiscontinuityOptions::default());
+        let wall = start.elapsed();
+        let check_start = std::time::Instant::now();
+        mesh.sanity_check(&scene).expect("sane");
+        let per_patch = check_start.elapsed();
+        let cross_start = std::time::Instant::now();
+        mesh.check_cross_patch(&scene).expect("watertight");
+        eprintln!(
+            "{name}: {} patches -> {} triangles, {} vertices; wall {wall:?} (sanity_check {per_patch:?}, check_cross_patch {:?})\n  {stats:?}",
+            scene.patches.len(),
+            stats.triangles,
+            stats.vertices,
+            cross_start.elapsed()
+        );
+    }
+}
