@@ -323,6 +323,236 @@ impl Mesh {
     }
 }
 
+/// Two collinear, overlapping boundary edges of different patches:
+/// `(patch, edge)` pairs, edge `k` running from vertex `k` to `k + 1`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct SharedEdge {
+    pub a: (usize, usize),
+    pub b: (usize, usize),
+}
+
+/// Size (bounding-box diagonal) of a patch, in f64.
+pub(crate) fn patch_size(vertices: &[Vec3]) -> f64 {
+    let (lo, hi) = vertices
+        .iter()
+        .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(d(*v)), hi.max(d(*v)))
+        });
+    let size = (hi - lo).length();
+    if size.is_finite() {
+        size
+    } else {
+        0.0
+    }
+}
+
+// `!(x > y)` on purpose: NaN never passes.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+/// Whether edge `a0`-`a1` lies on the line of `b0`-`b1` (within `tol`) over a
+/// common stretch longer than `tol`.
+fn collinear_overlap(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3, tol: f64) -> bool {
+    let dir = b1 - b0;
+    let len = dir.length();
+    if !(len > tol) {
+        return false;
+    }
+    let u = dir / len;
+    let (s0, s1) = ((a0 - b0).dot(u), (a1 - b0).dot(u));
+    let lo = s0.min(s1).max(0.0);
+    let hi = s0.max(s1).min(len);
+    if !(hi - lo > tol) || !((s1 - s0).abs() > tol) {
+        return false;
+    }
+    [lo, hi].iter().all(|&s| {
+        let a = a0 + (a1 - a0) * ((s - s0) / (s1 - s0));
+        let r = a - b0;
+        (r - u * r.dot(u)).length() <= tol
+    })
+}
+
+/// Every pair of boundary edges of different patches that lie on one line
+/// and overlap (within 1e-5 of the smaller patch's size): the edges along
+/// which neighbouring patches must be split identically. Sweep over x.
+pub(crate) fn shared_edges(scene: &Scene) -> Vec<SharedEdge> {
+    struct E {
+        p: usize,
+        k: usize,
+        a: DVec3,
+        b: DVec3,
+        lo: DVec3,
+        hi: DVec3,
+        tol: f64,
+    }
+    let mut edges: Vec<E> = Vec::new();
+    for (p, patch) in scene.patches.iter().enumerate() {
+        let n = patch.vertices.len();
+        if n < 3 {
+            continue;
+        }
+        let tol = ON_EDGE_TOL * patch_size(&patch.vertices);
+        for k in 0..n {
+            let (a, b) = (d(patch.vertices[k]), d(patch.vertices[(k + 1) % n]));
+            if !(a.is_finite() && b.is_finite()) {
+                continue;
+            }
+            edges.push(E {
+                p,
+                k,
+                a,
+                b,
+                lo: a.min(b),
+                hi: a.max(b),
+                tol,
+            });
+        }
+    }
+    edges.sort_by(|x, y| x.lo.x.total_cmp(&y.lo.x));
+    let mut out = Vec::new();
+    for i in 0..edges.len() {
+        let e = &edges[i];
+        for f in &edges[i + 1..] {
+            if f.lo.x > e.hi.x + e.tol.max(f.tol) {
+                break;
+            }
+            if f.p == e.p {
+                continue;
+            }
+            let tol = e.tol.min(f.tol);
+            if (f.lo - DVec3::splat(tol)).cmpgt(e.hi).any()
+                || (e.lo - DVec3::splat(tol)).cmpgt(f.hi).any()
+            {
+                continue;
+            }
+            if collinear_overlap(e.a, e.b, f.a, f.b, tol)
+                && collinear_overlap(f.a, f.b, e.a, e.b, tol)
+            {
+                out.push(SharedEdge {
+                    a: (e.p, e.k),
+                    b: (f.p, f.k),
+                });
+            }
+        }
+    }
+    out
+}
+
+impl Mesh {
+    /// [`Mesh::sanity_check`] plus [`Mesh::check_cross_patch`]: for meshers
+    /// that promise a watertight mesh across patches (the discontinuity
+    /// mesher; the uniform mesher splits neighbours independently).
+    pub fn sanity_check_watertight(&self, scene: &Scene) -> Result<(), String> {
+        self.sanity_check(scene)?;
+        self.check_cross_patch(scene)
+    }
+
+    /// No T-junctions between patches: where boundary edges of two patches
+    /// P and Q lie on one line and overlap, no vertex of P on that edge lies
+    /// inside (farther than 1e-5 of Q's size from the ends) a boundary edge
+    /// of one of Q's elements on it. Expects `patch_elements` to be valid
+    /// (run [`Mesh::sanity_check`] first). About linear in the mesh size.
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN never passes
+    pub fn check_cross_patch(&self, scene: &Scene) -> Result<(), String> {
+        if self.patch_elements.len() != scene.patches.len() {
+            return Err("patch_elements does not match the scene".into());
+        }
+        let shared = shared_edges(scene);
+        if shared.is_empty() {
+            return Ok(());
+        }
+        let mut involved: Vec<bool> = vec![false; scene.patches.len()];
+        for s in &shared {
+            involved[s.a.0] = true;
+            involved[s.b.0] = true;
+        }
+        // Per involved patch and patch edge: its mesh vertices on that edge
+        // and its elements' boundary edges on it.
+        let mut on_edge: HashMap<(usize, usize), Vec<u32>> = HashMap::new();
+        let mut boundary: HashMap<(usize, usize), Vec<[u32; 2]>> = HashMap::new();
+        for (p, patch) in scene.patches.iter().enumerate() {
+            if !involved[p] {
+                continue;
+            }
+            let n = patch.vertices.len();
+            let tol = ON_EDGE_TOL * patch_size(&patch.vertices);
+            let near = |k: usize, v: u32| {
+                let (a, b) = (d(patch.vertices[k]), d(patch.vertices[(k + 1) % n]));
+                let q = d(self.vertices[v as usize]);
+                let ab = b - a;
+                let t =
+                    ((q - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+                (a + ab * t).distance(q) <= tol
+            };
+            let range = self.patch_elements[p].clone();
+            let mut uses: HashMap<[u32; 2], u32> = HashMap::new();
+            let mut verts: Vec<u32> = Vec::new();
+            for e in range {
+                let Some(el) = self.elements.get(e as usize) else {
+                    return Err(format!("patch {p}: element {e} does not exist"));
+                };
+                let c = el.corners();
+                for i in 0..c.len() {
+                    let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                    *uses.entry([a.min(b), a.max(b)]).or_default() += 1;
+                    verts.push(a);
+                }
+            }
+            verts.sort_unstable();
+            verts.dedup();
+            if verts.iter().any(|&v| v as usize >= self.vertices.len()) {
+                return Err(format!("patch {p}: a corner is not a vertex"));
+            }
+            for k in 0..n {
+                on_edge.insert(
+                    (p, k),
+                    verts.iter().copied().filter(|&v| near(k, v)).collect(),
+                );
+                boundary.insert(
+                    (p, k),
+                    uses.iter()
+                        .filter(|&(e, &count)| count == 1 && near(k, e[0]) && near(k, e[1]))
+                        .map(|(e, _)| *e)
+                        .collect(),
+                );
+            }
+        }
+        for s in &shared {
+            for (pe, qe) in [(s.a, s.b), (s.b, s.a)] {
+                let q_patch = &scene.patches[qe.0];
+                let tol = ON_EDGE_TOL * patch_size(&q_patch.vertices);
+                let n = q_patch.vertices.len();
+                let qa = d(q_patch.vertices[qe.1]);
+                let qb = d(q_patch.vertices[(qe.1 + 1) % n]);
+                let len = qa.distance(qb);
+                if !(len > 0.0) {
+                    continue;
+                }
+                let u = (qb - qa) / len;
+                let mut params: Vec<(f64, u32)> = on_edge[&pe]
+                    .iter()
+                    .map(|&v| ((d(self.vertices[v as usize]) - qa).dot(u), v))
+                    .collect();
+                params.sort_by(|x, y| x.0.total_cmp(&y.0));
+                for e in &boundary[&qe] {
+                    let s0 = (d(self.vertices[e[0] as usize]) - qa).dot(u);
+                    let s1 = (d(self.vertices[e[1] as usize]) - qa).dot(u);
+                    let (lo, hi) = (s0.min(s1) + tol, s0.max(s1) - tol);
+                    if lo >= hi {
+                        continue;
+                    }
+                    let first = params.partition_point(|x| x.0 <= lo);
+                    if let Some(&(_, w)) = params.get(first).filter(|x| x.0 < hi) {
+                        return Err(format!(
+                            "T-junction between patches: vertex {w} of patch {} lies inside edge {}-{} of patch {}'s element (shared edge {} of patch {} / edge {} of patch {})",
+                            pe.0, e[0], e[1], qe.0, pe.1, pe.0, qe.1, qe.0
+                        ));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use glam::Vec3;
@@ -525,5 +755,41 @@ mod tests {
         let start = std::time::Instant::now();
         mesh.sanity_check(&s).expect("sane");
         assert!(start.elapsed().as_secs_f32() < 5.0, "{:?}", start.elapsed());
+    }
+
+    #[test]
+    fn cross_patch_t_junctions() {
+        let a = unit_square();
+        let b = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+        ];
+        let s = scene(&[&a, &b]);
+        assert_eq!(super::shared_edges(&s).len(), 1);
+        uniform(&s, 1.0)
+            .sanity_check_watertight(&s)
+            .expect("same level");
+        // Patch 1 (1 x 3) split at thirds of 0.75: its vertex (1, 0.75) lies
+        // inside patch 0's element edge (1, 0)-(1, 1).
+        let b3 = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 3.0, 0.0),
+            Vec3::new(1.0, 3.0, 0.0),
+        ];
+        let s2 = scene(&[&a, &b3]);
+        let mesh = uniform(&s2, 1.0);
+        mesh.sanity_check(&s2).expect("sane per patch");
+        let err = mesh.check_cross_patch(&s2).expect_err("T-junction");
+        assert!(err.contains("T-junction between patches"), "{err}");
+        // Patches that only touch at a corner share nothing.
+        let c = [
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(2.0, 1.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+        ];
+        assert!(super::shared_edges(&scene(&[&a, &c])).is_empty());
     }
 }

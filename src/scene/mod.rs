@@ -131,11 +131,23 @@ const BUILTINS: &[(&str, &str, &str, &str)] = &[
         "simple.mtl",
         include_str!("../../scenes/simple.mtl"),
     ),
+    (
+        "r",
+        include_str!("../../scenes/r.obj"),
+        "r.mtl",
+        include_str!("../../scenes/r.mtl"),
+    ),
+    (
+        "vise",
+        include_str!("../../scenes/vise.obj"),
+        "vise.mtl",
+        include_str!("../../scenes/vise.mtl"),
+    ),
 ];
 
 /// Names of the built-in scenes, for `load_builtin` and `load_scene_arg`.
 pub fn builtin_names() -> &'static [&'static str] {
-    &["cornell", "simple"]
+    &["cornell", "simple", "r", "vise"]
 }
 
 /// Loads a built-in scene; `None` when there is none of that name.

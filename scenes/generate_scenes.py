@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Generates the built-in scenes `r` (thesis fig. 17: an extruded letter R on
+a floor, 138 polygons) and `vise` (thesis fig. 26: a bench vise on a table,
+about 1000 polygons). Python 3 standard library only; run from anywhere:
+
+    python3 scenes/generate_scenes.py
+
+Every face is planar and convex, counter-clockwise seen from outside (its
+front), with no degenerate faces.
+"""
+
+import math
+import os
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+class Obj:
+    def __init__(self, header, camera, mtllib):
+        self.lines = ["# " + line if line else "#" for line in header.splitlines()]
+        self.lines += ["#", "# vkrad camera " + camera, "", "mtllib " + mtllib]
+        self.count = 0
+        self.faces = 0
+
+    def group(self, name, material):
+        self.lines += ["", "o " + name, "usemtl " + material]
+
+    def face(self, points):
+        assert len(points) >= 3
+        base = self.count
+        for p in points:
+            self.lines.append("v %s %s %s" % tuple(fmt(c) for c in p))
+        self.count += len(points)
+        self.lines.append("f " + " ".join(str(base + i + 1) for i in range(len(points))))
+        self.faces += 1
+
+    def write(self, path):
+        with open(path, "w", newline="\n") as f:
+            f.write("\n".join(self.lines) + "\n")
+
+
+def fmt(x):
+    s = "%.6f" % x
+    s = s.rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def box(obj, lo, hi):
+    """An axis-aligned box, six faces facing out."""
+    (x0, y0, z0), (x1, y1, z1) = lo, hi
+    obj.face([(x0, y0, z0), (x1, y0, z0), (x1, y0, z1), (x0, y0, z1)])  # bottom, -y
+    obj.face([(x0, y1, z0), (x0, y1, z1), (x1, y1, z1), (x1, y1, z0)])  # top, +y
+    obj.face([(x0, y0, z0), (x0, y1, z0), (x1, y1, z0), (x1, y0, z0)])  # -z
+    obj.face([(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)])  # +z
+    obj.face([(x0, y0, z0), (x0, y0, z1), (x0, y1, z1), (x0, y1, z0)])  # -x
+    obj.face([(x1, y0, z0), (x1, y1, z0), (x1, y1, z1), (x1, y0, z1)])  # +x
+
+
+def add(a, b):
+    return tuple(x + y for x, y in zip(a, b))
+
+
+def scale(a, s):
+    return tuple(x * s for x in a)
+
+
+def cylinder(obj, centre, axis, u, v, radius, t0, t1, sides, segments, caps=True):
+    """A faceted cylinder along unit `axis` (u x v = axis) from t0 to t1:
+    sides x segments quads, and triangle-fan caps."""
+
+    def ring(i, t):
+        a = 2.0 * math.pi * (i % sides) / sides
+        off = add(scale(u, radius * math.cos(a)), scale(v, radius * math.sin(a)))
+        return add(add(centre, scale(axis, t)), off)
+
+    ts = [t0 + (t1 - t0) * j / segments for j in range(segments + 1)]
+    for j in range(segments):
+        for i in range(sides):
+            obj.face([ring(i, ts[j]), ring(i + 1, ts[j]), ring(i + 1, ts[j + 1]), ring(i, ts[j + 1])])
+    if caps:
+        c0 = add(centre, scale(axis, t0))
+        c1 = add(centre, scale(axis, t1))
+        for i in range(sides):
+            obj.face([c1, ring(i, t1), ring(i + 1, t1)])
+            obj.face([c0, ring(i + 1, t0), ring(i, t0)])
+
+
+def light(obj, cx, y, cz, half):
+    """A square light at height y facing down."""
+    obj.face([(cx - half, y, cz - half), (cx + half, y, cz - half),
+              (cx + half, y, cz + half), (cx - half, y, cz + half)])
+
+
+def r_scene():
+    n_arc = 26
+    thick = 0.6
+    z_back, z_front = -thick / 2, thick / 2
+    pieces = []  # convex pieces of the letter in x-y, counter-clockwise
+    rect = lambda x0, y0, x1, y1: [(x0, y0), (x1, y0), (x1, y1), (x0, y1)]
+    for y0, y1 in [(0, 2), (2, 2.4), (2.4, 3.6), (3.6, 4)]:
+        pieces.append(rect(0, y0, 0.8, y1))  # the stem, split where bars join
+    pieces.append(rect(0.8, 3.6, 1.5, 4))  # top bar
+    pieces.append(rect(0.8, 2, 1.0, 2.4))  # middle bar, two pieces so the
+    pieces.append(rect(1.0, 2, 1.5, 2.4))  # leg's top edge matches one
+    pieces.append([(1.0, 2), (2.2, 0), (2.8, 0), (1.5, 2)])  # the leg
+    cx, cy, r_out, r_in = 1.5, 3.0, 1.0, 0.6
+    for i in range(n_arc):  # the bowl: annulus pieces from the top, clockwise
+        a0 = math.pi / 2 - math.pi * i / n_arc
+        a1 = math.pi / 2 - math.pi * (i + 1) / n_arc
+        p = lambda r, a: (cx + r * math.cos(a), cy + r * math.sin(a))
+        pieces.append([p(r_in, a0), p(r_in, a1), p(r_out, a1), p(r_out, a0)][::-1])
+    # Make every piece counter-clockwise (seen from +z).
+    def ccw(poly):
+        s = sum(poly[i][0] * poly[(i + 1) % len(poly)][1] - poly[(i + 1) % len(poly)][0] * poly[i][1]
+                for i in range(len(poly)))
+        return poly if s > 0 else poly[::-1]
+    pieces = [ccw(p) for p in pieces]
+    # Outline edges: directed piece edges whose reverse no piece has.
+    key = lambda p: (round(p[0], 9), round(p[1], 9))
+    directed = set()
+    for poly in pieces:
+        for i in range(len(poly)):
+            directed.add((key(poly[i]), key(poly[(i + 1) % len(poly)])))
+    outline = [(a, b) for poly in pieces for a, b in
+               ((poly[i], poly[(i + 1) % len(poly)]) for i in range(len(poly)))
+               if (key(b), key(a)) not in directed]
+
+    obj = Obj(
+        "The \"R\" scene (after fig. 17 of the thesis): an extruded letter R\n"
+        "(4 high, 0.6 thick, built from convex pieces: front, back and side\n"
+        "walls) standing on a 12 x 8 floor at y = 0, under one square light\n"
+        "(1 x 1, Ke 10) at y = 7 facing down. Generated by generate_scenes.py.",
+        "eye 1.4 4.5 10 look_at 1.4 1.2 0 up 0 1 0 fov 45",
+        "r.mtl",
+    )
+    obj.group("floor", "floor")
+    obj.face([(-4, 0, -4), (-4, 0, 4), (8, 0, 4), (8, 0, -4)])
+    obj.group("letter", "letter")
+    for poly in pieces:
+        obj.face([(x, y, z_front) for x, y in poly])
+    for poly in pieces:
+        obj.face([(x, y, z_back) for x, y in reversed(poly)])
+    for (ax, ay), (bx, by) in outline:
+        obj.face([(ax, ay, z_front), (ax, ay, z_back), (bx, by, z_back), (bx, by, z_front)])
+    obj.group("light", "light")
+    light(obj, -1.0, 7.0, 2.0, 0.5)
+    obj.write(os.path.join(HERE, "r.obj"))
+    with open(os.path.join(HERE, "r.mtl"), "w", newline="\n") as f:
+        f.write("# Kd: diffuse reflectance (0..1). Ke: emitted radiance L_e (RGB).\n\n"
+                "newmtl floor\nKd 0.7 0.7 0.7\n\n"
+                "newmtl letter\nKd 0.75 0.2 0.15\n\n"
+                "newmtl light\nKd 0 0 0\nKe 10 10 10\n")
+    return obj.faces
+
+
+def vise_scene():
+    obj = Obj(
+        "The vise scene (after fig. 26 of the thesis): a bench vise on a table\n"
+        "top: base, fixed and moving jaws with jaw plates, slide rail, a\n"
+        "faceted screw (32 sides), a handle bar (16 sides) with two knobs,\n"
+        "four hexagonal bolts, under one square light (10 x 10, Ke 10) at\n"
+        "y = 45 facing down. Units: cm. Generated by generate_scenes.py.",
+        "eye 40 35 55 look_at 4 6 0 up 0 1 0 fov 40",
+        "vise.mtl",
+    )
+    obj.group("table", "table")
+    box(obj, (-30, -4, -20), (30, 0, 20))
+    obj.group("vise", "steel")
+    box(obj, (-12, 0, -10), (12, 3, 10))  # base
+    box(obj, (-12, 3, -7), (-4, 14, 7))  # fixed jaw
+    box(obj, (2, 3, -7), (10, 14, 7))  # moving jaw
+    box(obj, (-4, 8, -7), (-3, 14, 7))  # jaw plates
+    box(obj, (1, 8, -7), (2, 14, 7))
+    box(obj, (-4, 3, -3), (18, 6, 3))  # slide rail
+    X, Y, Z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    cylinder(obj, (0, 9, 0), X, Y, Z, 1.2, -8, 26, 32, 20)  # screw
+    cylinder(obj, (24, 9, 0), Z, X, Y, 0.5, -12, 12, 16, 12)  # handle bar
+    box(obj, (23, 8, 12), (25, 10, 14))  # knobs
+    box(obj, (23, 8, -14), (25, 10, -12))
+    for bx in (-10, 10):
+        for bz in (-9, 9):
+            # Hexagonal bolt heads: 6 sides and a hexagonal top.
+            cylinder(obj, (bx, 3, bz), Y, Z, X, 0.8, 0, 1, 6, 1, caps=False)
+            top = [(bx + 0.8 * math.sin(2 * math.pi * i / 6), 4, bz + 0.8 * math.cos(2 * math.pi * i / 6))
+                   for i in range(6)]
+            obj.face(top)
+            obj.face([(x, 3, z) for x, _, z in reversed(top)])
+    obj.group("light", "light")
+    light(obj, -5.0, 45.0, 10.0, 5.0)
+    obj.write(os.path.join(HERE, "vise.obj"))
+    with open(os.path.join(HERE, "vise.mtl"), "w", newline="\n") as f:
+        f.write("# Kd: diffuse reflectance (0..1). Ke: emitted radiance L_e (RGB).\n\n"
+                "newmtl table\nKd 0.6 0.45 0.3\n\n"
+                "newmtl steel\nKd 0.5 0.55 0.6\n\n"
+                "newmtl light\nKd 0 0 0\nKe 10 10 10\n")
+    return obj.faces
+
+
+if __name__ == "__main__":
+    print("r: %d faces" % r_scene())
+    print("vise: %d faces" % vise_scene())

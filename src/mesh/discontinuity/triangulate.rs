@@ -1,0 +1,444 @@
+//! Constrained Delaunay triangulation of one target's arrangement (spade),
+//! and conforming longest-edge bisection on top.
+
+use std::collections::HashMap;
+
+use glam::DVec2;
+use spade::handles::FixedVertexHandle;
+use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
+
+use super::arrange::{share_edge, Arrangement, Tag};
+
+/// A triangulated target in scaled 2D coordinates.
+#[derive(Debug, Default)]
+pub(crate) struct Triangulated {
+    pub points: Vec<DVec2>,
+    pub tags: Vec<Tag>,
+    /// Counter-clockwise triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Constraints spade refused (they would have crossed another).
+    pub dropped: usize,
+}
+
+type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
+
+/// Spade rejects coordinates of tiny non-zero magnitude.
+fn coord(x: f64) -> f64 {
+    if x.abs() < 1e-100 {
+        0.0
+    } else {
+        x
+    }
+}
+
+/// Triangulates the arrangement: its boundary chains and interior
+/// constraints as constraint edges; slivers along the boundary (all three
+/// corners on one boundary edge) and triangles outside the polygon dropped.
+/// `interior` = false leaves the interior constraints out (the fallback).
+pub(crate) fn triangulate(arr: &Arrangement, interior: bool) -> Result<Triangulated, String> {
+    let mut cdt = Cdt::new();
+    let mut handle_of: Vec<Option<FixedVertexHandle>> = Vec::with_capacity(arr.points.len());
+    for p in &arr.points {
+        let h = cdt.insert(Point2::new(coord(p.x), coord(p.y))).ok();
+        handle_of.push(h);
+    }
+    for (k, h) in handle_of.iter().enumerate().take(arr.poly.len()) {
+        if h.is_none() {
+            return Err(format!("corner {k} could not be triangulated"));
+        }
+    }
+    // Handle index -> the first arrangement vertex that made it.
+    let mut vertex_of: Vec<u32> = vec![u32::MAX; cdt.num_vertices()];
+    for (v, h) in handle_of.iter().enumerate() {
+        if let Some(h) = h {
+            if vertex_of[h.index()] == u32::MAX {
+                vertex_of[h.index()] = v as u32;
+            }
+        }
+    }
+    let mut dropped = 0;
+    let mut constrain = |cdt: &mut Cdt, a: u32, b: u32| {
+        if let (Some(ha), Some(hb)) = (handle_of[a as usize], handle_of[b as usize]) {
+            if ha != hb
+                && !cdt.exists_constraint(ha, hb)
+                && cdt.try_add_constraint(ha, hb).is_empty()
+            {
+                dropped += 1;
+            }
+        }
+    };
+    for k in 0..arr.poly.len() {
+        let chain = arr.edge_chain(k);
+        for w in chain.windows(2) {
+            constrain(&mut cdt, w[0].1, w[1].1);
+        }
+    }
+    if interior {
+        for &[a, b] in &arr.constraints {
+            constrain(&mut cdt, a, b);
+        }
+    }
+
+    let poly = &arr.poly;
+    let n = poly.len();
+    let mut out = Triangulated {
+        points: Vec::with_capacity(cdt.num_vertices()),
+        tags: Vec::with_capacity(cdt.num_vertices()),
+        triangles: Vec::new(),
+        dropped,
+    };
+    // Compact: only vertices that are in a kept triangle, in handle order.
+    let mut remap: Vec<u32> = vec![u32::MAX; cdt.num_vertices()];
+    for face in cdt.inner_faces() {
+        let hs = face.vertices().map(|v| v.fix().index());
+        let ids = hs.map(|h| vertex_of.get(h).copied().unwrap_or(u32::MAX));
+        if ids.contains(&u32::MAX) {
+            continue;
+        }
+        let tags = ids.map(|v| &arr.tags[v as usize]);
+        if share_edge(tags[0], tags[1])
+            && share_edge(tags[1], tags[2])
+            && tags[0]
+                .edges()
+                .any(|(k, _)| tags[1].on_edge(k) && tags[2].on_edge(k))
+        {
+            continue; // a sliver along one boundary edge
+        }
+        let pts = ids.map(|v| arr.points[v as usize]);
+        let centroid = (pts[0] + pts[1] + pts[2]) / 3.0;
+        let inside = (0..n).all(|k| {
+            let (a, b) = (poly[k], poly[(k + 1) % n]);
+            (b - a).perp_dot(centroid - a) >= -1e-12 * (b - a).length()
+        });
+        if !inside {
+            continue;
+        }
+        let mut tri = [0u32; 3];
+        for (slot, (&h, &v)) in tri.iter_mut().zip(hs.iter().zip(ids.iter())) {
+            if remap[h] == u32::MAX {
+                remap[h] = out.points.len() as u32;
+                out.points.push(arr.points[v as usize]);
+                out.tags.push(arr.tags[v as usize]);
+            }
+            *slot = remap[h];
+        }
+        out.triangles.push(tri);
+    }
+    Ok(out)
+}
+
+/// Splits interior edges longer than `max_len` by Rivara's longest-edge
+/// propagation path bisection: a triangle's longest edge is split only
+/// together with the neighbour whose longest edge it also is, so the mesh
+/// stays conforming and angles stay bounded below. Boundary edges are never
+/// split (the caller subdivided them beforehand, identically on every patch
+/// that shares them). Returns whether `max_triangles` stopped it.
+pub(crate) fn refine(
+    tri: &mut Triangulated,
+    poly: &[DVec2],
+    snap: f64,
+    max_len: f64,
+    max_triangles: usize,
+) -> bool {
+    if !(max_len > 0.0) {
+        return false;
+    }
+    let mut r = Refiner {
+        limit: max_len * (1.0 + 1e-9),
+        poly,
+        snap,
+        points: std::mem::take(&mut tri.points),
+        tags: std::mem::take(&mut tri.tags),
+        tris: std::mem::take(&mut tri.triangles),
+        alive: Vec::new(),
+        edges: HashMap::new(),
+    };
+    r.alive = vec![true; r.tris.len()];
+    for t in 0..r.tris.len() {
+        r.link(t as u32);
+    }
+    let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
+    let mut capped = false;
+    while let Some(t) = stack.pop() {
+        if !r.alive[t as usize] {
+            continue;
+        }
+        let (e, len) = r.longest(t);
+        if len <= r.limit {
+            continue;
+        }
+        if r.tris.len() >= max_triangles.saturating_mul(2) || r.alive_count() >= max_triangles {
+            capped = true;
+            break;
+        }
+        // Walk the longest-edge propagation path to its terminal edge.
+        let mut cur = t;
+        let mut steps = 0;
+        let terminal = loop {
+            let (e, _) = r.longest(cur);
+            match r.neighbour(cur, e) {
+                Some(nb) if r.longest(nb).0 == e => break Some(e),
+                Some(nb) if steps < 10_000 => {
+                    cur = nb;
+                    steps += 1;
+                }
+                Some(_) => break None,
+                None => break (!r.is_boundary(e)).then_some(e),
+            }
+        };
+        let Some(edge) = terminal.filter(|&edge| !r.is_boundary(edge)) else {
+            // Unsplittable (a boundary edge longer than the limit): give up
+            // on this triangle.
+            let _ = e;
+            continue;
+        };
+        let children = r.split_edge(edge);
+        if children.is_empty() {
+            continue; // refused: this triangle stays longer than the limit
+        }
+        stack.push(t);
+        stack.extend(children);
+    }
+    tri.points = r.points;
+    tri.tags = r.tags;
+    tri.triangles = r
+        .tris
+        .iter()
+        .zip(&r.alive)
+        .filter(|(_, &a)| a)
+        .map(|(t, _)| *t)
+        .collect();
+    capped
+}
+
+/// Removes slivers whose apex lies within `tol` of the interior of the
+/// opposite edge (which would read as a T-junction): the edge is flipped
+/// to the apex, so the path through the apex replaces it (it is within
+/// `tol` of the old edge, so a constraint keeps its course). Boundary edges
+/// are never flipped. Returns the number of flips.
+pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
+    let mut r = Refiner {
+        limit: f64::INFINITY,
+        poly,
+        snap,
+        points: std::mem::take(&mut tri.points),
+        tags: std::mem::take(&mut tri.tags),
+        tris: std::mem::take(&mut tri.triangles),
+        alive: Vec::new(),
+        edges: HashMap::new(),
+    };
+    r.alive = vec![true; r.tris.len()];
+    for t in 0..r.tris.len() {
+        r.link(t as u32);
+    }
+    let mut flips = 0;
+    let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
+    let budget = 4 * r.tris.len() + 16;
+    while let Some(t) = stack.pop() {
+        if !r.alive[t as usize] || flips >= budget {
+            continue;
+        }
+        let v = r.tris[t as usize];
+        for k in 0..3 {
+            let (a, b, w) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+            let (pa, pb, pw) = (
+                r.points[a as usize],
+                r.points[b as usize],
+                r.points[w as usize],
+            );
+            let len = pa.distance(pb);
+            if !(len > 0.0) {
+                continue;
+            }
+            let dir = (pb - pa) / len;
+            let along = (pw - pa).dot(dir);
+            let off = dir.perp_dot(pw - pa).abs();
+            if off >= tol || along <= tol || along >= len - tol {
+                continue;
+            }
+            let e = Refiner::key(a, b);
+            if r.is_boundary(e) {
+                continue;
+            }
+            let Some(nb) = r.neighbour(t, e) else {
+                continue;
+            };
+            let nv = r.tris[nb as usize];
+            let Some(&x) = nv.iter().find(|&&c| c != a && c != b) else {
+                continue;
+            };
+            let px = r.points[x as usize];
+            let n1 = [w, a, x];
+            let n2 = [w, x, b];
+            let ccw = |t: [u32; 3]| {
+                let [p, q, s] = t.map(|i| r.points[i as usize]);
+                (q - p).perp_dot(s - p) > 0.0
+            };
+            // Flip only when it strictly improves the worse of the two
+            // triangles (smallest altitude), so flips cannot cycle.
+            let quality = |t: [u32; 3]| {
+                let [p, q, s] = t.map(|i| r.points[i as usize]);
+                let twice = (q - p).perp_dot(s - p);
+                let longest = p.distance(q).max(q.distance(s)).max(s.distance(p));
+                if longest > 0.0 {
+                    twice / longest
+                } else {
+                    0.0
+                }
+            };
+            let before = quality(v).min(quality(nv));
+            if !(ccw(n1) && ccw(n2)) || px == pw || quality(n1).min(quality(n2)) <= before {
+                continue;
+            }
+            r.unlink(t);
+            r.unlink(nb);
+            r.tris[t as usize] = n1;
+            r.tris[nb as usize] = n2;
+            r.link(t);
+            r.link(nb);
+            flips += 1;
+            stack.push(t);
+            stack.push(nb);
+            break;
+        }
+    }
+    tri.points = r.points;
+    tri.tags = r.tags;
+    tri.triangles = r.tris;
+    flips
+}
+
+struct Refiner<'a> {
+    limit: f64,
+    poly: &'a [DVec2],
+    snap: f64,
+    points: Vec<DVec2>,
+    tags: Vec<Tag>,
+    tris: Vec<[u32; 3]>,
+    alive: Vec<bool>,
+    /// Edge (sorted vertex pair) -> up to two triangles.
+    edges: HashMap<[u32; 2], [u32; 2]>,
+}
+
+impl Refiner<'_> {
+    fn alive_count(&self) -> usize {
+        self.alive.iter().filter(|&&a| a).count()
+    }
+
+    fn key(a: u32, b: u32) -> [u32; 2] {
+        [a.min(b), a.max(b)]
+    }
+
+    fn link(&mut self, t: u32) {
+        let v = self.tris[t as usize];
+        for k in 0..3 {
+            let slot = self
+                .edges
+                .entry(Self::key(v[k], v[(k + 1) % 3]))
+                .or_insert([u32::MAX; 2]);
+            if slot[0] == u32::MAX {
+                slot[0] = t;
+            } else {
+                slot[1] = t;
+            }
+        }
+    }
+
+    fn unlink(&mut self, t: u32) {
+        let v = self.tris[t as usize];
+        for k in 0..3 {
+            let key = Self::key(v[k], v[(k + 1) % 3]);
+            if let Some(slot) = self.edges.get_mut(&key) {
+                if slot[0] == t {
+                    slot[0] = slot[1];
+                    slot[1] = u32::MAX;
+                } else if slot[1] == t {
+                    slot[1] = u32::MAX;
+                }
+                if slot[0] == u32::MAX {
+                    self.edges.remove(&key);
+                }
+            }
+        }
+    }
+
+    /// The longest edge (ties broken by the vertex pair) and its length.
+    fn longest(&self, t: u32) -> ([u32; 2], f64) {
+        let v = self.tris[t as usize];
+        let mut best = (Self::key(v[0], v[1]), -1.0);
+        for k in 0..3 {
+            let e = Self::key(v[k], v[(k + 1) % 3]);
+            let len = self.points[e[0] as usize].distance(self.points[e[1] as usize]);
+            if len > best.1 || (len == best.1 && e < best.0) {
+                best = (e, len);
+            }
+        }
+        best
+    }
+
+    fn neighbour(&self, t: u32, e: [u32; 2]) -> Option<u32> {
+        let slot = self.edges.get(&e)?;
+        let other = if slot[0] == t { slot[1] } else { slot[0] };
+        (other != u32::MAX && other != t).then_some(other)
+    }
+
+    fn is_boundary(&self, e: [u32; 2]) -> bool {
+        if share_edge(&self.tags[e[0] as usize], &self.tags[e[1] as usize]) {
+            return true;
+        }
+        let m = (self.points[e[0] as usize] + self.points[e[1] as usize]) * 0.5;
+        let n = self.poly.len();
+        (0..n).any(|k| {
+            super::geom::segment_distance(m, self.poly[k], self.poly[(k + 1) % n]).0 <= self.snap
+        })
+    }
+
+    /// Bisects edge `e` in every triangle that has it; returns the children.
+    fn split_edge(&mut self, e: [u32; 2]) -> Vec<u32> {
+        let Some(&slot) = self.edges.get(&e) else {
+            return Vec::new();
+        };
+        let mid = (self.points[e[0] as usize] + self.points[e[1] as usize]) * 0.5;
+        // No child may be a sliver (every vertex farther than twice the snap
+        // tolerance from the opposite side), else the split is refused.
+        for &t in slot.iter().filter(|&&t| t != u32::MAX) {
+            let v = self.tris[t as usize];
+            let Some(c) = v.iter().copied().find(|&x| x != e[0] && x != e[1]) else {
+                return Vec::new();
+            };
+            let pc = self.points[c as usize];
+            for end in e {
+                let pe = self.points[end as usize];
+                let twice_area = (pe - mid).perp_dot(pc - mid).abs();
+                let longest = pe.distance(mid).max(pe.distance(pc)).max(mid.distance(pc));
+                if !(twice_area > 2.0 * self.snap * longest) {
+                    return Vec::new();
+                }
+            }
+        }
+        let m = self.points.len() as u32;
+        self.points.push(mid);
+        self.tags.push(Tag::default());
+        let mut children = Vec::new();
+        for t in slot {
+            if t == u32::MAX {
+                continue;
+            }
+            let v = self.tris[t as usize];
+            let Some(k) = (0..3).find(|&k| Self::key(v[k], v[(k + 1) % 3]) == e) else {
+                continue;
+            };
+            let (a, b, c) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+            self.unlink(t);
+            self.alive[t as usize] = false;
+            for child in [[a, m, c], [m, b, c]] {
+                let id = self.tris.len() as u32;
+                self.tris.push(child);
+                self.alive.push(true);
+                self.link(id);
+                children.push(id);
+            }
+        }
+        children
+    }
+}
