@@ -9,6 +9,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::{self, Mesh};
+use crate::meshing::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
@@ -28,6 +29,13 @@ pub struct RenderJob {
     pub device: DeviceOptions,
     /// Maximum element edge; `None`: relative to the scene's size.
     pub max_edge: Option<f32>,
+    pub mesher: Mesher,
+    /// Tile side of the discontinuity mesher's GPU visibility pass.
+    pub dm_res: u32,
+    /// Verify the mesh (`sanity_check`) before solving.
+    pub check_mesh: bool,
+    /// Draw the mesh edges over the image.
+    pub wireframe: bool,
     pub solve: SolveSettings,
     /// Camera fields to override on the scene's own (or automatic) camera.
     pub camera: CameraOverride,
@@ -44,6 +52,10 @@ impl RenderJob {
             export: None,
             device: DeviceOptions::default(),
             max_edge: None,
+            mesher: Mesher::Uniform,
+            dm_res: 128,
+            check_mesh: true,
+            wireframe: false,
             solve: SolveSettings::default(),
             camera: CameraOverride::default(),
             size: (800, 800),
@@ -80,6 +92,7 @@ pub struct RenderReport {
     pub scene: Scene,
     pub mesh: Mesh,
     pub max_edge: f32,
+    pub mesh_report: MeshReport,
     pub solution: Solution,
     pub image: HdrImage,
     /// Exposure used for the PNG/PLY colours (given or automatic).
@@ -233,24 +246,25 @@ pub fn run_render(
     let camera = job.camera.apply(default_camera(&scene));
     wall.push(("load", t.elapsed().as_secs_f64()));
 
-    let t = Instant::now();
-    let max_edge = job
-        .max_edge
-        .unwrap_or_else(|| mesh::default_max_edge(&scene));
-    if !(max_edge.is_finite() && max_edge > 0.0) {
-        return Err(Error::Invalid(format!(
-            "--max-edge must be a positive length, got {max_edge}"
-        )));
-    }
-    let mesh = mesh::uniform(&scene, max_edge);
-    mesh.sanity_check(&scene)
-        .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
-    wall.push(("mesh", t.elapsed().as_secs_f64()));
-
     let device = match device {
         Some(d) => d,
         None => Device::new(&job.device)?,
     };
+    let t = Instant::now();
+    let max_edge = job
+        .max_edge
+        .unwrap_or_else(|| mesh::default_max_edge(&scene));
+    let settings = MeshSettings {
+        mesher: job.mesher,
+        max_edge,
+        dm_res: job.dm_res,
+    };
+    let (mesh, mesh_report) = build_mesh(&device, &scene, &settings)?;
+    if job.check_mesh {
+        check_mesh(&mesh, &scene, job.mesher)?;
+    }
+    wall.push(("mesh", t.elapsed().as_secs_f64()));
+
     let t = Instant::now();
     let solution = solve(&device, &scene, &mesh, &job.solve, on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
@@ -303,6 +317,7 @@ pub fn run_render(
         scene,
         mesh,
         max_edge,
+        mesh_report,
         solution,
         image,
         exposure,

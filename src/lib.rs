@@ -10,6 +10,7 @@ pub mod error;
 pub mod formfactor;
 pub mod gpu;
 pub mod mesh;
+pub mod meshing;
 pub mod output;
 pub mod projection;
 pub mod render;

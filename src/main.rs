@@ -13,6 +13,7 @@ use glam::Vec3;
 
 use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
 use vkrad::gpu::{self, Device, DeviceOptions};
+use vkrad::meshing::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
 
 #[derive(Parser)]
@@ -42,6 +43,8 @@ enum Command {
     Devices,
     /// Print the patch-to-patch form-factor matrix (input polygons, file order).
     Formfactors(FormFactorArgs),
+    /// Write the element mesh alone (.obj or .ply), with mesher statistics.
+    Mesh(MeshOnlyArgs),
 }
 
 #[derive(Args)]
@@ -63,6 +66,17 @@ struct MeshArgs {
     /// Hemicube top-face resolution in pixels (even, 2..8192).
     #[arg(long, default_value_t = 256, value_name = "PIXELS")]
     hemicube_res: u32,
+    /// Mesher: uniform quadtree, or discontinuity meshing (shadow boundaries
+    /// from every emitter vertex and edge, refined to --max-edge unless
+    /// --no-refine).
+    #[arg(long = "mesh", value_enum, default_value_t = MesherArg::Uniform)]
+    mesher: MesherArg,
+    /// Discontinuity meshing without uniform refinement on top.
+    #[arg(long)]
+    no_refine: bool,
+    /// Tile side in pixels of the discontinuity mesher's GPU visibility pass.
+    #[arg(long, default_value_t = 128, value_name = "PIXELS")]
+    dm_res: u32,
     /// Form factors: GPU hemicube, CPU ray tracing (vertex-to-source), or
     /// exact unoccluded point-to-polygon (scenes where nothing blocks).
     #[arg(long, value_enum, default_value_t = FfArg::Hemicube)]
@@ -73,6 +87,12 @@ struct MeshArgs {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+enum MesherArg {
+    Uniform,
+    Discontinuity,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 enum FfArg {
     Hemicube,
     Raytrace,
@@ -80,6 +100,15 @@ enum FfArg {
 }
 
 impl MeshArgs {
+    fn mesher(&self) -> Mesher {
+        match self.mesher {
+            MesherArg::Uniform => Mesher::Uniform,
+            MesherArg::Discontinuity => Mesher::Discontinuity {
+                refine: !self.no_refine,
+            },
+        }
+    }
+
     fn method(&self) -> Result<FormFactorMethod> {
         Ok(match self.ff {
             FfArg::Hemicube => FormFactorMethod::Hemicube,
@@ -128,6 +157,12 @@ struct RenderArgs {
     /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
     #[arg(long)]
     exposure: Option<f32>,
+    /// Draw the mesh edges over the image (black lines).
+    #[arg(long)]
+    wireframe: bool,
+    /// Skip the mesh sanity check (orientation, planes, area, T-junctions).
+    #[arg(long)]
+    no_check_mesh: bool,
     /// Print the GPU time per pass (Vulkan timestamps: count, total, mean, share).
     #[arg(long)]
     profile: bool,
@@ -137,6 +172,19 @@ struct RenderArgs {
     /// Print nothing but errors.
     #[arg(short, long)]
     quiet: bool,
+    #[command(flatten)]
+    gpu: DeviceArgs,
+}
+
+#[derive(Args)]
+struct MeshOnlyArgs {
+    /// Scene: a path to an .obj file, or a built-in name.
+    scene: String,
+    /// Output mesh: .obj or .ply.
+    #[arg(short, long, value_name = "FILE")]
+    output: PathBuf,
+    #[command(flatten)]
+    mesh: MeshArgs,
     #[command(flatten)]
     gpu: DeviceArgs,
 }
@@ -191,6 +239,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Some(Command::Devices) => devices(),
         Some(Command::Formfactors(args)) => formfactors(args),
+        Some(Command::Mesh(args)) => mesh_only(args),
         None => render(cli.render),
     };
     match result {
@@ -238,6 +287,10 @@ fn render(args: RenderArgs) -> Result<()> {
         validate: args.gpu.validate,
     };
     job.max_edge = args.mesh.max_edge;
+    job.mesher = args.mesh.mesher();
+    job.dm_res = args.mesh.dm_res;
+    job.wireframe = args.wireframe;
+    job.check_mesh = !args.no_check_mesh;
     job.solve = SolveSettings {
         method: args.mesh.method()?,
         hemicube_res: args.mesh.hemicube_res,
@@ -384,6 +437,7 @@ fn print_summary(r: &RenderReport, profile: bool) {
         r.mesh.vertices.len(),
         r.max_edge
     );
+    print_mesh_report(&r.mesh_report);
     println!(
         "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
         s.shots,
@@ -444,6 +498,58 @@ fn print_summary(r: &RenderReport, profile: bool) {
     );
     if let Some(e) = &r.export {
         println!("  wrote     {}", e.display());
+    }
+}
+
+fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
+    vkrad::app::check_output_path(&args.output, &["obj", "ply"])?;
+    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let device = Device::new(&DeviceOptions {
+        selector: args.gpu.device.clone(),
+        validate: args.gpu.validate,
+    })?;
+    let settings = MeshSettings {
+        mesher: args.mesh.mesher(),
+        max_edge: args
+            .mesh
+            .max_edge
+            .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene)),
+        dm_res: args.mesh.dm_res,
+    };
+    let (mesh, report) = build_mesh(&device, &scene, &settings)?;
+    check_mesh(&mesh, &scene, settings.mesher)?;
+    device.check_validation()?;
+    // Geometry only: the colour and radiosity fields are zero.
+    let zeros = vec![[0.0f32; 3]; mesh.vertices.len()];
+    vkrad::output::export_mesh(&args.output, &mesh, &zeros, 1.0)?;
+    println!(
+        "{}: {} patches -> {} elements, {} vertices; sanity check passed",
+        scene.source.display(),
+        scene.patches.len(),
+        mesh.elements.len(),
+        mesh.vertices.len()
+    );
+    print_mesh_report(&report);
+    println!("wrote {}", args.output.display());
+    Ok(())
+}
+
+fn print_mesh_report(report: &MeshReport) {
+    let stages: Vec<String> = report
+        .stages
+        .iter()
+        .map(|(name, d)| format!("{name} {:.3}s", d.as_secs_f64()))
+        .collect();
+    println!(
+        "  mesher    {} (total {:.3}s)",
+        stages.join(", "),
+        report.total().as_secs_f64()
+    );
+    if let Some(s) = &report.discontinuity {
+        println!(
+            "  events    {} light-vertex/target pairs ({} GPU tiles, {} unlit), {} blockers projected, {} segments ({} distinct)",
+            report.pairs, report.tiles, s.pairs_invisible, s.blockers_projected, s.segments, s.segments_distinct
+        );
     }
 }
 
