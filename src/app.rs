@@ -297,6 +297,7 @@ pub fn run_render(
         &radiance,
         &camera,
         job.size,
+        job.wireframe,
         &mut gpu_times,
     )?;
     wall.push(("render", t.elapsed().as_secs_f64()));

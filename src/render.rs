@@ -73,7 +73,34 @@ pub fn vertex_radiance(mesh: &Mesh, element_radiosity: &[[f32; 3]]) -> Vec<[f32;
         .collect()
 }
 
-/// Rasterizes the lit mesh into a linear-radiance image.
+/// Every element edge once, as line vertices (radiance 0: black), each end
+/// pulled towards the eye by a thousandth of its distance so the line wins
+/// the depth test against its own surface.
+pub fn wireframe_lines(mesh: &Mesh, eye: Vec3) -> Vec<LitVertex> {
+    let mut edges = std::collections::HashSet::new();
+    for e in &mesh.elements {
+        let c = e.corners();
+        for k in 0..c.len() {
+            let (a, b) = (c[k], c[(k + 1) % c.len()]);
+            edges.insert((a.min(b), a.max(b)));
+        }
+    }
+    let mut edges: Vec<_> = edges.into_iter().collect();
+    edges.sort_unstable();
+    let pull = |p: Vec3| p + (eye - p) * 1e-3;
+    edges
+        .into_iter()
+        .flat_map(|(a, b)| [a, b])
+        .map(|v| LitVertex {
+            position: pull(mesh.vertices[v as usize]).to_array(),
+            radiance: [0.0; 3],
+        })
+        .collect()
+}
+
+/// Rasterizes the lit mesh into a linear-radiance image, with the mesh
+/// edges drawn over it when `wireframe` is set.
+#[allow(clippy::too_many_arguments)]
 pub fn render_image(
     device: &Arc<Device>,
     scene: &Scene,
@@ -81,6 +108,7 @@ pub fn render_image(
     vertex_radiance: &[[f32; 3]],
     camera: &Camera,
     (width, height): (u32, u32),
+    wireframe: bool,
     times: &mut StageTimes,
 ) -> Result<HdrImage> {
     if width == 0 || height == 0 || width > 16384 || height > 16384 {
@@ -108,7 +136,12 @@ pub fn render_image(
             (sw, sh)
         };
     let factor = sw / width;
-    let big = render_lit_mesh(device, &triangles, view_proj, sw, sh, times)?;
+    let lines = if wireframe {
+        wireframe_lines(mesh, camera.eye)
+    } else {
+        Vec::new()
+    };
+    let big = render_lit_mesh(device, &triangles, &lines, view_proj, sw, sh, times)?;
     let mut pixels = Vec::with_capacity((width * height) as usize);
     let scale = 1.0 / (factor * factor) as f32;
     for y in 0..height {

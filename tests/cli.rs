@@ -300,3 +300,38 @@ fn formfactor_methods_agree_where_they_should() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn wireframe_darkens_mesh_edges() {
+    let dir = temp_dir("wireframe");
+    let run = |extra: &[&str], out: &str| {
+        let mut args = vec![
+            "simple",
+            "-o",
+            out,
+            "--size",
+            "64x48",
+            "--hemicube-res",
+            "16",
+            "--exposure",
+            "4",
+            "--mesh",
+            "discontinuity",
+            "--no-refine",
+            "--validate",
+        ];
+        args.extend_from_slice(extra);
+        let o = vkrad(&args, &dir);
+        assert!(o.status.success(), "{}", stderr(&o));
+        image::open(dir.join(out)).unwrap().to_rgb8()
+    };
+    let plain = run(&[], "plain.png");
+    let wire = run(&["--wireframe"], "wire.png");
+    let darker = plain
+        .pixels()
+        .zip(wire.pixels())
+        .filter(|(p, w)| w.0[1] + 40 < p.0[1])
+        .count();
+    assert!(darker > 20, "wireframe changed only {darker} pixels");
+    std::fs::remove_dir_all(&dir).ok();
+}

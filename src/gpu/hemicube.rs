@@ -247,6 +247,7 @@ impl HemicubeEngine {
                 depth_format: DEPTH_FORMAT,
                 depth_compare: vk::CompareOp::GREATER,
                 stencil: None,
+                topology: vk::PrimitiveTopology::TRIANGLE_LIST,
             },
         )?;
         let reduce_pipeline = Pipeline::compute(

@@ -183,6 +183,7 @@ pub struct GraphicsDesc<'a> {
     pub depth_compare: vk::CompareOp,
     /// `None` for depth-only attachments.
     pub stencil: Option<StencilMode>,
+    pub topology: vk::PrimitiveTopology,
 }
 
 /// How a pipeline uses the stencil buffer (reference value 1).
@@ -266,8 +267,7 @@ impl Pipeline {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&vertex_bindings)
             .vertex_attribute_descriptions(&attributes);
-        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(desc.topology);
         let viewport = vk::PipelineViewportStateCreateInfo::default()
             .viewport_count(1)
             .scissor_count(1);

@@ -26,10 +26,13 @@ const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
 /// Renders `triangles` (three vertices each) with `view_proj` into a
-/// `width` x `height` linear-radiance image (rgba, top row first).
+/// `width` x `height` linear-radiance image (rgba, top row first), then
+/// `lines` (two vertices each; empty for none) over it.
+#[allow(clippy::too_many_arguments)]
 pub fn render_lit_mesh(
     device: &Arc<Device>,
     triangles: &[LitVertex],
+    lines: &[LitVertex],
     view_proj: glam::Mat4,
     width: u32,
     height: u32,
@@ -67,24 +70,46 @@ pub fn render_lit_mesh(
         vk::BufferUsageFlags::VERTEX_BUFFER,
     )?;
     let bindings = Bindings::new(device, "final render bindings", &[], 64)?;
+    let desc = |topology| GraphicsDesc {
+        vertex: shaders::RENDER_VERT,
+        fragment: shaders::RENDER_FRAG,
+        vertex_stride: std::mem::size_of::<LitVertex>() as u32,
+        attributes: &[
+            (0, vk::Format::R32G32B32_SFLOAT, 0),
+            (1, vk::Format::R32G32B32_SFLOAT, 12),
+        ],
+        color_format: COLOR_FORMAT,
+        depth_format: DEPTH_FORMAT,
+        depth_compare: vk::CompareOp::GREATER,
+        stencil: None,
+        topology,
+    };
     let pipeline = Pipeline::graphics(
         device,
         "final render",
         bindings.layout,
-        &GraphicsDesc {
-            vertex: shaders::RENDER_VERT,
-            fragment: shaders::RENDER_FRAG,
-            vertex_stride: std::mem::size_of::<LitVertex>() as u32,
-            attributes: &[
-                (0, vk::Format::R32G32B32_SFLOAT, 0),
-                (1, vk::Format::R32G32B32_SFLOAT, 12),
-            ],
-            color_format: COLOR_FORMAT,
-            depth_format: DEPTH_FORMAT,
-            depth_compare: vk::CompareOp::GREATER,
-            stencil: None,
-        },
+        &desc(vk::PrimitiveTopology::TRIANGLE_LIST),
     )?;
+    // Lines are optional; their vertices come pulled towards the eye so
+    // they win the depth test against the surface they lie on.
+    let line_pass = if lines.is_empty() {
+        None
+    } else {
+        Some((
+            Pipeline::graphics(
+                device,
+                "wireframe",
+                bindings.layout,
+                &desc(vk::PrimitiveTopology::LINE_LIST),
+            )?,
+            upload(
+                device,
+                "wireframe vertices",
+                lines,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+            )?,
+        ))
+    };
     let cmds = Commands::new(device, "final render commands")?;
     let mut profiler = GpuProfiler::new(device, "final render timestamps", 4)?;
     let cmd = cmds.begin()?;
@@ -186,6 +211,11 @@ pub fn render_lit_mesh(
         );
         raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
         raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
+        if let Some((line_pipeline, line_vertices)) = &line_pass {
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
+            raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
+            raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
+        }
         raw.cmd_end_rendering(cmd);
     }
     if let Some(p) = profiler.as_mut() {

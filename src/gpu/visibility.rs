@@ -158,6 +158,7 @@ impl VisibilityPass {
             depth_format,
             depth_compare: compare,
             stencil: Some(stencil),
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
         };
         let mark_pipeline = Pipeline::graphics(
             device,
