@@ -330,7 +330,7 @@ fn wireframe_darkens_mesh_edges() {
     let darker = plain
         .pixels()
         .zip(wire.pixels())
-        .filter(|(p, w)| w.0[1] + 40 < p.0[1])
+        .filter(|(p, w)| w.0[1] + 12 < p.0[1])
         .count();
     assert!(darker > 20, "wireframe changed only {darker} pixels");
     std::fs::remove_dir_all(&dir).ok();

@@ -106,7 +106,7 @@ impl Arrangement {
             for y in ky - 1..=ky + 1 {
                 for &v in self.fine.get(&(x, y)).map(Vec::as_slice).unwrap_or(&[]) {
                     let dist = self.points[v as usize].distance(p);
-                    if dist <= tol && best.map_or(true, |(b, _)| dist < b) {
+                    if dist <= tol && best.is_none_or(|(b, _)| dist < b) {
                         best = Some((dist, v));
                     }
                 }
