@@ -331,14 +331,18 @@ fn near_field_receiver_close_to_large_shooter() {
 
     let col = |k: usize| -> Vec<f64> { table.iter().map(|r| r[k]).collect() };
     let (hemi, fine, recip, rt, w16, w256) = (col(3), col(4), col(5), col(6), col(7), col(8));
-    // The failure is real and grows as the receiver comes closer: already
-    // 3x too large at d = L/4, 9x at d = L/20.
-    assert!(hemi[0] > 2.0 && hemi[2] > 5.0, "{hemi:?}");
+    // The failure is real and grows as the receiver comes closer: the
+    // error is already over 300% at d = L/4 and 600% at d = L/20.
+    assert!(hemi[0] > 3.0 && hemi[2] > 6.0, "{hemi:?}");
     assert!(hemi.windows(2).all(|w| w[1] > w[0]), "{hemi:?}");
-    // Bound: the one-point hemicube over-estimates by at most the ratio of
-    // the point value at the centre to the exact value, i.e. < A_panel /
-    // A_receiver = 11.1 here (the receiver cannot take more than F = 1).
-    assert!(hemi.iter().all(|&e| e < a_panel / a_receiver), "{hemi:?}");
+    // Bound: the one-point hemicube gives at most its whole view (F = 1)
+    // while the exact value tends to A_receiver / A_panel as d -> 0: the
+    // factor tends to A_panel / A_receiver = 11.1 and stays below it (+1%
+    // for the hemicube's own error) over the sweep.
+    assert!(
+        hemi.iter().all(|&e| 1.0 + e < 1.01 * a_panel / a_receiver),
+        "{hemi:?}"
+    );
     // An 8 x 8 shooter mesh (elements L/8) is within 2% while d >= L/10,
     // but fails too once d is well below the element size (then each
     // element counts as wholly under the receiver or not at all).
