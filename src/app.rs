@@ -289,7 +289,7 @@ pub fn run_render(
 
     let t = Instant::now();
     let mut gpu_times = solution.times.clone();
-    let radiance = vertex_radiance(&mesh, &solution.radiosity);
+    let radiance = vertex_radiance(&mesh, &solution);
     let image = render_image(
         &device,
         &scene,
@@ -306,7 +306,7 @@ pub fn run_render(
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
     save_image(&image, &output, Some(exposure))?;
     if let Some(export) = &job.export {
-        let vertex_radiosity = mesh.vertex_values(&solution.radiosity);
+        let vertex_radiosity = crate::render::vertex_radiosity(&mesh, &solution);
         export_mesh(export, &mesh, &vertex_radiosity, exposure)?;
     }
     wall.push(("write", t.elapsed().as_secs_f64()));

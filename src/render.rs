@@ -65,9 +65,18 @@ pub fn camera_view_proj(camera: &Camera, aspect: f32, scene_extent: f32) -> Resu
     Ok(perspective(camera.fov_y_deg.to_radians(), aspect, near) * view)
 }
 
+/// Per-vertex radiosity for display: the solver's own vertex values where
+/// it has them (ray tracing), else the area-weighted element average.
+pub fn vertex_radiosity(mesh: &Mesh, solution: &crate::solve::Solution) -> Vec<[f32; 3]> {
+    match &solution.vertex_radiosity {
+        Some(v) => v.clone(),
+        None => mesh.vertex_values(&solution.radiosity),
+    }
+}
+
 /// Per-vertex radiance L = B / pi for Gouraud display.
-pub fn vertex_radiance(mesh: &Mesh, element_radiosity: &[[f32; 3]]) -> Vec<[f32; 3]> {
-    mesh.vertex_values(element_radiosity)
+pub fn vertex_radiance(mesh: &Mesh, solution: &crate::solve::Solution) -> Vec<[f32; 3]> {
+    vertex_radiosity(mesh, solution)
         .into_iter()
         .map(|b| (Vec3::from(b) / std::f32::consts::PI).to_array())
         .collect()

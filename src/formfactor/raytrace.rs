@@ -440,11 +440,27 @@ impl<'a> RayTracedFormFactors<'a> {
     /// # Panics
     /// If `shooter` is not an element index.
     pub fn from_shooter(&self, shooter: usize, rays: usize, seed: u64) -> Vec<f32> {
+        self.from_shooter_with_vertices(shooter, rays, seed).0
+    }
+
+    /// [`Self::from_shooter`], plus the point form factor F(vertex <- shooter)
+    /// at every mesh vertex (0 on the shooter's own patch): Wallace's
+    /// vertex-to-source values, from which radiosity at the vertices follows
+    /// directly (no averaging through elements).
+    pub fn from_shooter_with_vertices(
+        &self,
+        shooter: usize,
+        rays: usize,
+        seed: u64,
+    ) -> (Vec<f32>, Vec<f32>) {
         let mesh = self.mesh;
         let el = &mesh.elements[shooter];
         let src = Shooter::new(mesh, el);
         if rays == 0 || src.area.is_nan() || src.area <= 0.0 {
-            return vec![0.0; mesh.elements.len()];
+            return (
+                vec![0.0; mesh.elements.len()],
+                vec![0.0; mesh.vertices.len()],
+            );
         }
         let per_vertex: Vec<f32> = (0..mesh.vertices.len())
             .into_par_iter()
@@ -465,7 +481,8 @@ impl<'a> RayTracedFormFactors<'a> {
             })
             .collect();
         let eps = self.occluders.eps;
-        mesh.elements
+        let per_element = mesh
+            .elements
             .par_iter()
             .map(|e| {
                 if e.patch == src.patch || src.coplanar(e, eps) {
@@ -476,7 +493,8 @@ impl<'a> RayTracedFormFactors<'a> {
                     / corners.len() as f32;
                 mean * e.area / src.area
             })
-            .collect()
+            .collect();
+        (per_element, per_vertex)
     }
 
     /// The form factor from a differential area at `p` (unit normal `n`,

@@ -74,6 +74,10 @@ pub struct Progress {
 pub struct Solution {
     /// Radiosity B per element (rgb, W/m^2 in the scene's units).
     pub radiosity: Vec<[f32; 3]>,
+    /// Radiosity B at every mesh vertex where the method computes it there
+    /// (ray tracing: Wallace's vertex-to-source), for display; `None`: derive
+    /// it from the elements (`Mesh::vertex_values`).
+    pub vertex_radiosity: Option<Vec<[f32; 3]>>,
     pub shots: usize,
     /// Unshot power / emitted power at the end.
     pub residual: f64,
@@ -179,14 +183,24 @@ impl<'a> CpuFormFactors<'a> {
 
     /// F(shooter -> every element). `salt` varies the ray pattern per shot.
     pub fn from_shooter(&self, shooter: usize, salt: u64) -> Vec<f32> {
+        self.from_shooter_with_vertices(shooter, salt).0
+    }
+
+    /// F(shooter -> every element), and for ray tracing also F(vertex <-
+    /// shooter) at every vertex (Wallace's vertex-to-source values).
+    pub fn from_shooter_with_vertices(
+        &self,
+        shooter: usize,
+        salt: u64,
+    ) -> (Vec<f32>, Option<Vec<f32>>) {
         match self {
-            CpuFormFactors::RayTrace { tracer, rays } => tracer.from_shooter(
-                shooter,
-                *rays,
-                salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ shooter as u64,
-            ),
+            CpuFormFactors::RayTrace { tracer, rays } => {
+                let seed = salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ shooter as u64;
+                let (elements, vertices) = tracer.from_shooter_with_vertices(shooter, *rays, seed);
+                (elements, Some(vertices))
+            }
             CpuFormFactors::Analytic { scene, mesh } => {
-                element_form_factors_analytic(scene, mesh, shooter)
+                (element_form_factors_analytic(scene, mesh, shooter), None)
             }
         }
     }
@@ -233,6 +247,22 @@ pub fn solve(
     let mut heap = IndexedMaxHeap::from_keys(keys);
     let cpu_form_factors = CpuFormFactors::new(scene, mesh, settings.method);
     let mut cpu_times = StageTimes::default();
+    // Per-vertex emission and reflectance (vertices belong to one patch).
+    let mut vertex_patch = vec![0u32; mesh.vertices.len()];
+    for e in &mesh.elements {
+        for &v in e.corners() {
+            vertex_patch[v as usize] = e.patch;
+        }
+    }
+    let vertex_material = |v: usize| scene.material_of(&scene.patches[vertex_patch[v] as usize]);
+    let mut vertex_radiosity: Option<Vec<[f32; 3]>> = match &cpu_form_factors {
+        Some(CpuFormFactors::RayTrace { .. }) => Some(
+            (0..mesh.vertices.len())
+                .map(|v| (vertex_material(v).emission * std::f32::consts::PI).to_array())
+                .collect(),
+        ),
+        _ => None,
+    };
     let mut unshot_power = emitted_power;
     let mut residual_history = vec![1.0];
     let mut shots = 0;
@@ -260,7 +290,18 @@ pub fn solve(
             }
             Some(cpu) => {
                 let t = Instant::now();
-                let ff = cpu.from_shooter(shooter, shots as u64);
+                let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter, shots as u64);
+                if let (Some(vb), Some(vff)) = (vertex_radiosity.as_mut(), vertex_ff) {
+                    // dB_v = rho_v F(v <- i) dB_i, at the vertices themselves.
+                    for (v, (b, f)) in vb.iter_mut().zip(vff).enumerate() {
+                        if f > 0.0 {
+                            let rho = vertex_material(v).reflectance;
+                            for c in 0..3 {
+                                b[c] += rho[c] * f * u[c];
+                            }
+                        }
+                    }
+                }
                 cpu_times.add(cpu.stage_name(), t.elapsed());
                 engine.shoot_with(&ff, shooter as u32, u, e.area)?
             }
@@ -299,6 +340,7 @@ pub fn solve(
         .collect();
     Ok(Solution {
         radiosity,
+        vertex_radiosity,
         shots,
         residual: unshot_power / emitted_power,
         converged,
