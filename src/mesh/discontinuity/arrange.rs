@@ -178,6 +178,108 @@ impl Arrangement {
         true
     }
 
+    /// Whether vertex `v` is one of the polygon's corners (vertices `0..n`).
+    pub fn is_corner(&self, v: u32) -> bool {
+        (v as usize) < self.poly.len()
+    }
+
+    /// The point at parameter `t` of boundary edge `k`.
+    fn edge_point(&self, k: usize, t: f64) -> DVec2 {
+        let n = self.poly.len();
+        let (a, b) = (self.poly[k], self.poly[(k + 1) % n]);
+        a + (b - a) * t
+    }
+
+    /// Adds a vertex on boundary edge `k` at parameter `t` in (0, 1), with no
+    /// welding (the caller has clustered the edge's points). `None` when `k`
+    /// or `t` is out of range.
+    pub fn add_on_edge(&mut self, k: usize, t: f64) -> Option<u32> {
+        if k >= self.poly.len() || !(t > 0.0 && t < 1.0) {
+            return None;
+        }
+        Some(self.push(self.edge_point(k, t), Tag::edge(k, t)))
+    }
+
+    /// Moves non-corner vertex `v` to parameter `t` in (0, 1) of boundary
+    /// edge `k`; the constraints ending at it follow it. Returns whether it
+    /// moved.
+    pub fn move_on_edge(&mut self, v: u32, k: usize, t: f64) -> bool {
+        if self.is_corner(v)
+            || v as usize >= self.points.len()
+            || k >= self.poly.len()
+            || !(t > 0.0 && t < 1.0)
+        {
+            return false;
+        }
+        let old = self.key(self.points[v as usize]);
+        if let Some(cell) = self.fine.get_mut(&old) {
+            cell.retain(|&x| x != v);
+        }
+        let q = self.edge_point(k, t);
+        self.points[v as usize] = q;
+        self.tags[v as usize] = Tag::edge(k, t);
+        let key = self.key(q);
+        self.fine.entry(key).or_default().push(v);
+        true
+    }
+
+    /// Merges every vertex `from` into `to` (pairs `(from, to)`; corners are
+    /// never merged away) and renumbers the remaining vertices, keeping
+    /// their order. Constraints are redirected; those that collapse to a
+    /// point or now run along the boundary are dropped.
+    pub fn merge_vertices(&mut self, merges: &[(u32, u32)]) {
+        let count = self.points.len();
+        let mut target: Vec<u32> = (0..count as u32).collect();
+        for &(from, to) in merges {
+            if !self.is_corner(from) && (from as usize) < count && (to as usize) < count {
+                target[from as usize] = to;
+            }
+        }
+        // Resolve chains; a cycle (not made by the callers) keeps its start.
+        for v in 0..count {
+            let mut t = target[v];
+            let mut steps = 0;
+            while target[t as usize] != t && steps <= count {
+                t = target[t as usize];
+                steps += 1;
+            }
+            target[v] = if target[t as usize] == t { t } else { v as u32 };
+        }
+        if target.iter().enumerate().all(|(v, &t)| t as usize == v) {
+            return;
+        }
+        let mut new_id = vec![u32::MAX; count];
+        let mut points = Vec::with_capacity(count);
+        let mut tags = Vec::with_capacity(count);
+        for v in 0..count {
+            if target[v] as usize == v {
+                new_id[v] = points.len() as u32;
+                points.push(self.points[v]);
+                tags.push(self.tags[v]);
+            }
+        }
+        for v in 0..count {
+            new_id[v] = new_id[target[v] as usize];
+        }
+        self.points = points;
+        self.tags = tags;
+        let mut constraints: Vec<[u32; 2]> = self
+            .constraints
+            .iter()
+            .map(|&[a, b]| [new_id[a as usize], new_id[b as usize]])
+            .filter(|&[a, b]| a != b && !share_edge(&self.tags[a as usize], &self.tags[b as usize]))
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        constraints.sort_unstable();
+        constraints.dedup();
+        self.constraints = constraints;
+        self.fine.clear();
+        for (v, p) in self.points.iter().enumerate() {
+            let key = self.key(*p);
+            self.fine.entry(key).or_default().push(v as u32);
+        }
+    }
+
     /// The vertices on boundary edge `k`, sorted by parameter (both corners
     /// included).
     pub fn edge_chain(&self, k: usize) -> Vec<(f64, u32)> {

@@ -32,6 +32,7 @@ use crate::scene::Scene;
 
 mod arrange;
 mod geom;
+mod shared;
 #[cfg(test)]
 mod tests;
 mod triangulate;
@@ -80,7 +81,8 @@ pub struct DiscontinuityStats {
     pub segments: usize,
     /// Distinct segments after snapping, summed over targets.
     pub segments_distinct: usize,
-    /// Points added to patches for shared edges with neighbours.
+    /// Points added to patches for shared edges with neighbours (after
+    /// clustering the points of every shared edge across its patches).
     pub shared_points: usize,
     /// Constraint edges the CDT refused (they crossed another after snapping).
     pub constraints_dropped: usize,
@@ -251,39 +253,10 @@ pub fn discontinuity_mesh(
         stats.arrangement_time += mid.elapsed();
     }
 
-    // Exchange boundary points along shared edges.
+    // One set of boundary points per shared edge, used by every patch on it.
     let start = Instant::now();
-    let mut pending: Vec<(usize, usize, f64)> = Vec::new();
-    for s in shared_edges(scene) {
-        for ((p, k), (q, kq)) in [(s.a, s.b), (s.b, s.a)] {
-            let (Some(arr_p), Some(fp), Some(fq)) = (&arrangements[p], &frames[p], &frames[q])
-            else {
-                continue;
-            };
-            let n = fq.corners3.len();
-            let (qa, qb) = (fq.corners3[kq], fq.corners3[(kq + 1) % n]);
-            let dir = qb - qa;
-            let len2 = dir.length_squared();
-            if !(len2 > 0.0) {
-                continue;
-            }
-            for (tp, _) in arr_p.edge_chain(k) {
-                let x = fp.edge_point(k, tp);
-                let tq = (x - qa).dot(dir) / len2;
-                if tq > 0.0 && tq < 1.0 {
-                    pending.push((q, kq, tq));
-                }
-            }
-        }
-    }
-    for (q, kq, tq) in pending {
-        if let Some(arr) = &mut arrangements[q] {
-            // Weld below the cross-patch check's 1e-5 tolerance.
-            if arr.insert_on_edge(kq, tq, 0.9e-5) {
-                stats.shared_points += 1;
-            }
-        }
-    }
+    stats.shared_points +=
+        shared::cluster_shared_edges(&shared_edges(scene), &frames, &mut arrangements);
     stats.arrangement_time += start.elapsed();
 
     // Pass 2: triangulate, refine, emit.
