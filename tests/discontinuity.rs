@@ -1,6 +1,8 @@
 //! Discontinuity meshing end to end with the GPU blocker oracle: watertight
-//! meshes on the built-in scenes (the image error against uniform meshes
-//! of equal size is measured by `vkrad bench`, not asserted here).
+//! meshes on the built-in scenes at the default --dm-res 128. Known open
+//! bug: at --dm-res 256 vise leaves a T-junction where two nearly collinear
+//! shadow segments end 1.9e-4 apart (beyond the snap tolerance). The image
+//! error against uniform meshes of equal size is measured, not asserted.
 
 mod common;
 
@@ -9,7 +11,7 @@ use vkrad::meshing::{build_mesh, check_mesh, MeshSettings, Mesher};
 #[test]
 fn gpu_oracle_meshes_are_watertight() {
     let device = common::device();
-    for name in ["simple", "cornell", "r"] {
+    for name in ["simple", "cornell", "r", "vise"] {
         let scene = vkrad::scene::load_builtin(name).unwrap().unwrap();
         for refine in [false, true] {
             let settings = MeshSettings {
