@@ -129,8 +129,13 @@ impl Instance {
                 .push_next(&mut validation_features);
         }
         // SAFETY: create_info and everything it points to live across the call.
-        let raw = unsafe { entry.create_instance(&create_info, None) }
-            .map_err(Error::vk("vkCreateInstance"))?;
+        let raw = unsafe { entry.create_instance(&create_info, None) }.map_err(|e| match e {
+            // The loader's answer when no driver (ICD) is installed at all.
+            vk::Result::ERROR_INCOMPATIBLE_DRIVER => Error::NoDevice(
+                "the Vulkan loader found no driver (no GPU driver and no lavapipe)".into(),
+            ),
+            e => Error::vk("vkCreateInstance")(e),
+        })?;
 
         let debug = if layer_present {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &raw);

@@ -201,7 +201,8 @@ impl Image {
             return Err(Error::Unsupported {
                 device: device.info.name.clone(),
                 what: format!(
-                    "image {name:?} of {}x{} exceeds the device's limit of {max} (or is empty)",
+                    "image {name:?} of {}x{} exceeds the device's limit of {max} pixels per side (or is empty); \
+                     lower --hemicube-res (the hemicube atlas is res x 3res), --dm-res or --size",
                     extent.width, extent.height
                 ),
             });

@@ -1,0 +1,69 @@
+//! Device faults end with a clear message, a non-zero exit and no panic:
+//! no Vulkan loader, no driver, no device matching --device, and a request
+//! beyond the device's limits.
+
+use std::process::{Command, Output};
+
+fn vkrad(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let dir = std::env::temp_dir();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vkrad"));
+    cmd.args(args).current_dir(&dir);
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("run vkrad")
+}
+
+fn expect_failure(out: &Output, needles: &[&str]) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "expected failure:\n{err}");
+    assert!(!err.contains("panicked"), "panicked:\n{err}");
+    for n in needles {
+        assert!(err.contains(n), "message lacks {n:?}:\n{err}");
+    }
+}
+
+#[test]
+fn no_vulkan_loader() {
+    // A broken libvulkan.so.1 first on the library path: the loader cannot load.
+    let dir = std::env::temp_dir().join(format!("vkrad-noloader-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("libvulkan.so.1"), b"not a library").unwrap();
+    let out = vkrad(
+        &["simple", "-o", "never.png"],
+        &[("LD_LIBRARY_PATH", dir.to_str().unwrap())],
+    );
+    std::fs::remove_dir_all(&dir).ok();
+    expect_failure(&out, &["no Vulkan loader", "apt-get install"]);
+}
+
+#[test]
+fn no_vulkan_driver() {
+    let out = vkrad(
+        &["simple", "-o", "never.png"],
+        &[
+            ("VK_ICD_FILENAMES", "/nonexistent/icd.json"),
+            ("VK_DRIVER_FILES", "/nonexistent/icd.json"),
+        ],
+    );
+    expect_failure(&out, &["no driver", "mesa-vulkan-drivers"]);
+}
+
+#[test]
+fn no_device_matches_the_selector() {
+    let out = vkrad(
+        &["simple", "--device", "no-such-gpu", "-o", "never.png"],
+        &[],
+    );
+    expect_failure(&out, &["no-such-gpu", "[0]", "vkrad devices"]);
+}
+
+#[test]
+fn beyond_the_device_limits() {
+    // The hemicube atlas is res x 3 res: 8192 needs 24576-pixel images.
+    let out = vkrad(
+        &["simple", "--hemicube-res", "8192", "-o", "never.png"],
+        &[],
+    );
+    expect_failure(&out, &["exceeds the device's limit", "--hemicube-res"]);
+}
