@@ -9,7 +9,10 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::{self, Mesh};
-use crate::meshing::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
+use crate::meshing::{
+    build_mesh, build_mesh_with_points, check_mesh, gradient_points, MeshReport, MeshSettings,
+    Mesher,
+};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
@@ -36,6 +39,11 @@ pub struct RenderJob {
     pub check_mesh: bool,
     /// Draw the mesh edges over the image.
     pub wireframe: bool,
+    /// A-posteriori refinement passes (discontinuity mesher only): re-mesh
+    /// where corner radiosities differ by more than `gradient` x the mean,
+    /// and solve again.
+    pub adaptive: usize,
+    pub gradient: f32,
     pub solve: SolveSettings,
     /// Camera fields to override on the scene's own (or automatic) camera.
     pub camera: CameraOverride,
@@ -56,6 +64,8 @@ impl RenderJob {
             dm_res: 128,
             check_mesh: true,
             wireframe: false,
+            adaptive: 0,
+            gradient: 0.25,
             solve: SolveSettings::default(),
             camera: CameraOverride::default(),
             size: (800, 800),
@@ -93,6 +103,8 @@ pub struct RenderReport {
     pub mesh: Mesh,
     pub max_edge: f32,
     pub mesh_report: MeshReport,
+    /// Element counts of every mesh solved (more than one with --adaptive).
+    pub adaptive_elements: Vec<usize>,
     pub solution: Solution,
     pub image: HdrImage,
     /// Exposure used for the PNG/PLY colours (given or automatic).
@@ -266,8 +278,39 @@ pub fn run_render(
     wall.push(("mesh", t.elapsed().as_secs_f64()));
 
     let t = Instant::now();
-    let solution = solve(&device, &scene, &mesh, &job.solve, on_progress)?;
+    let mut on_progress = on_progress;
+    let mut solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
+    let (mut mesh, mut mesh_report) = (mesh, mesh_report);
+    let mut adaptive_elements = vec![mesh.elements.len()];
+    if job.adaptive > 0 && job.mesher == Mesher::Uniform {
+        return Err(Error::Invalid(
+            "--adaptive refines discontinuity meshes: add --mesh discontinuity".into(),
+        ));
+    }
+    let mut extra_points = Vec::new();
+    for _ in 0..job.adaptive {
+        if solution.interrupted {
+            break;
+        }
+        let t = Instant::now();
+        let b = crate::render::vertex_radiosity(&mesh, &solution);
+        let points = gradient_points(&scene, &mesh, &b, job.gradient, max_edge / 64.0);
+        if points.is_empty() {
+            break;
+        }
+        extra_points.extend(points);
+        let (refined, report) = build_mesh_with_points(&device, &scene, &settings, &extra_points)?;
+        if job.check_mesh {
+            check_mesh(&refined, &scene, job.mesher)?;
+        }
+        wall.push(("adaptive mesh", t.elapsed().as_secs_f64()));
+        let t = Instant::now();
+        solution = solve(&device, &scene, &refined, &job.solve, &mut on_progress)?;
+        wall.push(("adaptive solve", t.elapsed().as_secs_f64()));
+        adaptive_elements.push(refined.elements.len());
+        (mesh, mesh_report) = (refined, report);
+    }
     let mut warnings = Vec::new();
     let received: f64 = mesh
         .elements
@@ -319,6 +362,7 @@ pub fn run_render(
         mesh,
         max_edge,
         mesh_report,
+        adaptive_elements,
         solution,
         image,
         exposure,

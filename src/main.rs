@@ -157,6 +157,14 @@ struct RenderArgs {
     /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
     #[arg(long)]
     exposure: Option<f32>,
+    /// A-posteriori refinement passes (with --mesh discontinuity): re-mesh
+    /// where the radiosity varies too much across an element, solve again.
+    #[arg(long, default_value_t = 0, value_name = "PASSES")]
+    adaptive: usize,
+    /// Refine elements whose corner radiosities differ by more than this
+    /// fraction of the mean radiosity (with --adaptive).
+    #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
+    gradient: f32,
     /// Draw the mesh edges over the image (black lines).
     #[arg(long)]
     wireframe: bool,
@@ -290,6 +298,8 @@ fn render(args: RenderArgs) -> Result<()> {
     job.mesher = args.mesh.mesher();
     job.dm_res = args.mesh.dm_res;
     job.wireframe = args.wireframe;
+    job.adaptive = args.adaptive;
+    job.gradient = args.gradient;
     job.check_mesh = !args.no_check_mesh;
     job.solve = SolveSettings {
         method: args.mesh.method()?,
@@ -438,6 +448,10 @@ fn print_summary(r: &RenderReport, profile: bool) {
         r.max_edge
     );
     print_mesh_report(&r.mesh_report);
+    if r.adaptive_elements.len() > 1 {
+        let counts: Vec<String> = r.adaptive_elements.iter().map(|n| n.to_string()).collect();
+        println!("  adaptive  elements per pass: {}", counts.join(" -> "));
+    }
     println!(
         "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
         s.shots,

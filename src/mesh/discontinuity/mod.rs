@@ -40,6 +40,16 @@ mod triangulate;
 use arrange::Arrangement;
 use geom::Frame;
 
+/// Whether `q` lies in the convex polygon `poly` (counter-clockwise), up
+/// to `tol`.
+fn inside_convex(poly: &[DVec2], q: DVec2, tol: f64) -> bool {
+    (0..poly.len()).all(|k| {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let edge = b - a;
+        edge.perp_dot(q - a) >= -tol * edge.length().max(1e-300)
+    })
+}
+
 /// Options of [`discontinuity_mesh`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct DiscontinuityOptions {
@@ -54,6 +64,10 @@ pub struct DiscontinuityOptions {
     pub snap_relative: f64,
     /// Refinement stops adding triangles to a patch beyond this many.
     pub max_triangles_per_patch: usize,
+    /// Extra vertices to insert, per patch (a-posteriori refinement: points
+    /// where the radiosity varies too much). Points on a patch's boundary
+    /// reach its neighbours through the shared-edge clustering.
+    pub extra_points: Vec<(u32, glam::Vec3)>,
 }
 
 impl Default for DiscontinuityOptions {
@@ -64,6 +78,7 @@ impl Default for DiscontinuityOptions {
             contact: true,
             snap_relative: 1e-4,
             max_triangles_per_patch: 1 << 20,
+            extra_points: Vec::new(),
         }
     }
 }
@@ -246,6 +261,17 @@ pub fn discontinuity_mesh(
         stats.projection_time += mid - start;
         let mut arr = Arrangement::new(&frame.corners, options.snap_relative);
         stats.segments_distinct += arr.add_segments(&segments);
+        for (_, p) in options
+            .extra_points
+            .iter()
+            .filter(|(p, _)| *p as usize == t)
+        {
+            let q = frame.to_2d(p.as_dvec3());
+            // Only points inside the patch (on its boundary counts).
+            if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, options.snap_relative) {
+                arr.insert(q);
+            }
+        }
         if let Some(m) = options.max_edge {
             arr.subdivide_boundary(f64::from(m) / frame.size);
         }
