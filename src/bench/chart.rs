@@ -1,0 +1,329 @@
+//! The bench chart: error against solve time, both axes logarithmic, one
+//! panel per scene, one curve per sweep, points labelled with their setting.
+//! Written as SVG (text left to the viewer's fonts) and PNG (text drawn with
+//! DejaVu Sans, loaded at run time; without it the PNG is skipped).
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+use plotters::coord::Shift;
+use plotters::element::{Drawable, PointCollection};
+use plotters::prelude::*;
+
+use super::{BenchPoint, Sweep};
+use crate::error::{Error, Result};
+
+/// Fonts tried for the PNG's text, in order.
+pub const FONT_CANDIDATES: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+];
+
+const PANEL_WIDTH: u32 = 620;
+const HEIGHT: u32 = 600;
+const TITLE_HEIGHT: u32 = 44;
+const FONT: &str = "sans-serif";
+
+/// What was written: the SVG always; the PNG, or why not.
+pub struct ChartOutcome {
+    pub png: std::result::Result<(), String>,
+}
+
+/// Registers DejaVu Sans as plotters' `sans-serif` once per process.
+/// The font bytes are leaked: plotters needs them `'static`.
+fn register_font() -> std::result::Result<(), String> {
+    static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            for path in FONT_CANDIDATES {
+                let Ok(bytes) = std::fs::read(path) else {
+                    continue;
+                };
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                return plotters::style::register_font(FONT, FontStyle::Normal, bytes)
+                    .map_err(|_| format!("{path} is not a usable font"));
+            }
+            Err(format!(
+                "no font for the PNG's text (looked for {}); install DejaVu Sans (Debian/Ubuntu: apt-get install fonts-dejavu-core). The SVG has the chart",
+                FONT_CANDIDATES.join(", ")
+            ))
+        })
+        .clone()
+}
+
+/// Colour, marker and legend name of each sweep.
+fn style(sweep: Sweep) -> (RGBColor, &'static str) {
+    match sweep {
+        Sweep::Hemicube => (RGBColor(31, 119, 180), "hemicube: resolution"),
+        Sweep::RayTrace => (RGBColor(214, 39, 40), "ray trace: rays per vertex"),
+        Sweep::ElementSize => (RGBColor(44, 160, 44), "hemicube: element count"),
+    }
+}
+
+/// Smallest error drawn (a run that matches the reference exactly would
+/// otherwise be off a log axis).
+const ERROR_FLOOR: f64 = 1e-6;
+
+/// Pads a positive range by a factor on both sides (log axes).
+fn log_range(values: impl Iterator<Item = f64>, floor: f64) -> std::ops::Range<f64> {
+    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+        let v = v.max(floor);
+        (lo.min(v), hi.max(v))
+    });
+    if !lo.is_finite() || hi <= 0.0 {
+        return floor..floor * 10.0;
+    }
+    let (lo, hi) = (lo / 1.6, hi * 1.6);
+    if hi / lo < 10.0 {
+        let mid = (lo * hi).sqrt();
+        (mid / 3.2)..(mid * 3.2)
+    } else {
+        lo..hi
+    }
+}
+
+/// Scenes in the order they first appear.
+fn scene_names(points: &[BenchPoint]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for p in points {
+        if !names.contains(&p.scene) {
+            names.push(p.scene.clone());
+        }
+    }
+    names
+}
+
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    points: &[BenchPoint],
+    title: &str,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    let (title_area, body) = root.split_vertically(TITLE_HEIGHT);
+    title_area.draw(&Text::new(
+        title.to_owned(),
+        (16, 12),
+        (FONT, 22).into_font().color(&BLACK),
+    ))?;
+    // One legend for all panels, top right: the sweeps are the same in each.
+    let (width, _) = title_area.dim_in_pixel();
+    let mut x = width as i32 - 3 * 215 - 10;
+    for sweep in Sweep::ALL {
+        let (colour, legend) = style(sweep);
+        let y = 22;
+        title_area.draw(&PathElement::new(
+            vec![(x, y), (x + 26, y)],
+            colour.stroke_width(2),
+        ))?;
+        title_area.draw(&marker::<DB, _>(sweep, (x + 13, y), colour.filled()))?;
+        title_area.draw(&Text::new(
+            legend,
+            (x + 32, y - 7),
+            (FONT, 14).into_font().color(&BLACK),
+        ))?;
+        x += 215;
+    }
+    let names = scene_names(points);
+    let panels = body.split_evenly((1, names.len().max(1)));
+    for (name, panel) in names.iter().zip(panels.iter()) {
+        let scene_points: Vec<&BenchPoint> = points.iter().filter(|p| &p.scene == name).collect();
+        let x_range = log_range(scene_points.iter().map(|p| p.wall_seconds), 1e-3);
+        let y_range = log_range(scene_points.iter().map(|p| p.error), ERROR_FLOOR);
+        let reference = scene_points
+            .first()
+            .map(|p| p.reference.clone())
+            .unwrap_or_default();
+        let elements = scene_points
+            .iter()
+            .filter(|p| p.method == Sweep::Hemicube)
+            .map(|p| p.elements)
+            .next()
+            .unwrap_or(0);
+        let mut chart = ChartBuilder::on(panel)
+            .caption(
+                format!("{name} ({elements} elements)"),
+                (FONT, 19).into_font(),
+            )
+            .margin(12)
+            .x_label_area_size(52)
+            .y_label_area_size(72)
+            .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())?;
+        chart
+            .configure_mesh()
+            .x_desc("solve wall time (s)")
+            .y_desc(format!("relative RMS image error vs {}", short_reference(&reference)))
+            .axis_desc_style((FONT, 14))
+            .label_style((FONT, 12))
+            .x_label_formatter(&|v| tick_label(*v, false))
+            .y_label_formatter(&|v| tick_label(*v, true))
+            .light_line_style(WHITE.mix(0.0))
+            .bold_line_style(BLACK.mix(0.12))
+            .draw()?;
+        for sweep in Sweep::ALL {
+            let (colour, _) = style(sweep);
+            let mut series: Vec<&BenchPoint> = scene_points
+                .iter()
+                .copied()
+                .filter(|p| p.method == sweep)
+                .collect();
+            if series.is_empty() {
+                continue;
+            }
+            // In the order of the swept setting (cheapest setting first), so
+            // the curve follows the sweep even where timings are noisy.
+            series.sort_by_key(|p| match sweep {
+                Sweep::Hemicube => p.hemicube_res.unwrap_or(0) as usize,
+                Sweep::RayTrace => p.rays.unwrap_or(0),
+                Sweep::ElementSize => p.elements,
+            });
+            let xy = |p: &BenchPoint| (p.wall_seconds.max(1e-3), p.error.max(ERROR_FLOOR));
+            chart.draw_series(LineSeries::new(
+                series.iter().map(|p| xy(p)),
+                colour.stroke_width(2),
+            ))?;
+            chart.draw_series(
+                series
+                    .iter()
+                    .map(|p| marker::<DB, _>(sweep, xy(p), colour.filled())),
+            )?;
+            // Labels: hemicube above-left, rays below-right, elements right,
+            // so the curves' labels rarely collide.
+            let offset = match sweep {
+                Sweep::Hemicube => (-8, -16),
+                Sweep::RayTrace => (6, 5),
+                Sweep::ElementSize => (7, -6),
+            };
+            chart.draw_series(series.iter().map(|p| {
+                EmptyElement::at(xy(p))
+                    + Text::new(
+                        p.setting.clone(),
+                        offset,
+                        (FONT, 11).into_font().color(&colour),
+                    )
+            }))?;
+        }
+    }
+    root.present()?;
+    Ok(())
+}
+
+/// `hemicube 1024px, converge 1e-4` -> `hemicube 1024px`.
+fn short_reference(kind: &str) -> String {
+    let head = kind.split(',').next().unwrap_or(kind).trim();
+    if head.is_empty() {
+        "reference".into()
+    } else {
+        format!("{head} ref.")
+    }
+}
+
+/// The marker of a sweep's points.
+fn marker<DB: DrawingBackend, C: Clone + 'static>(
+    sweep: Sweep,
+    at: C,
+    style: ShapeStyle,
+) -> DynElement<'static, DB, C>
+where
+    Circle<C, i32>: Drawable<DB>,
+    TriangleMarker<C, i32>: Drawable<DB>,
+    Cross<C, i32>: Drawable<DB>,
+    for<'a> &'a Circle<C, i32>: PointCollection<'a, C>,
+    for<'a> &'a TriangleMarker<C, i32>: PointCollection<'a, C>,
+    for<'a> &'a Cross<C, i32>: PointCollection<'a, C>,
+{
+    match sweep {
+        Sweep::Hemicube => Circle::new(at, 4, style).into_dyn(),
+        Sweep::RayTrace => TriangleMarker::new(at, 5, style).into_dyn(),
+        Sweep::ElementSize => Cross::new(at, 5, style).into_dyn(),
+    }
+}
+
+/// Log-axis tick labels at 1, 2 and 5 times a power of ten only (plotters
+/// puts a tick at every integer multiple, far too many to label).
+fn tick_label(v: f64, scientific: bool) -> String {
+    if !(v > 0.0) {
+        return String::new();
+    }
+    let exponent = v.log10().floor();
+    let mantissa = v / 10f64.powf(exponent);
+    let nearest = mantissa.round();
+    if (mantissa - nearest).abs() > 1e-6 * mantissa || ![1.0, 2.0, 5.0].contains(&nearest) {
+        return String::new();
+    }
+    if scientific {
+        format!("{nearest:.0}e{exponent:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.0}")
+    } else {
+        let digits = (-exponent) as usize;
+        format!("{v:.digits$}")
+    }
+}
+
+fn chart_size(points: &[BenchPoint]) -> (u32, u32) {
+    let panels = scene_names(points).len().max(1) as u32;
+    (PANEL_WIDTH * panels, HEIGHT)
+}
+
+/// Renders the chart to SVG text. Text layout needs font metrics, so the
+/// font is registered if it can be; without it plotters still writes the
+/// SVG (text sizes estimated).
+pub fn render_svg(points: &[BenchPoint], title: &str) -> std::result::Result<String, String> {
+    let _ = register_font();
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, chart_size(points)).into_drawing_area();
+        draw(&root, points, title).map_err(|e| e.to_string())?;
+    }
+    Ok(svg)
+}
+
+/// Renders the chart to RGB8 pixels; `Err` when no font is available.
+pub fn render_png_pixels(
+    points: &[BenchPoint],
+    title: &str,
+) -> std::result::Result<(u32, u32, Vec<u8>), String> {
+    register_font()?;
+    let (w, h) = chart_size(points);
+    let mut pixels = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area();
+        draw(&root, points, title).map_err(|e| e.to_string())?;
+    }
+    Ok((w, h, pixels))
+}
+
+/// Writes `svg` (always) and `png` (when a font is found), atomically.
+/// A chart that cannot be drawn at all is an error; a PNG that cannot be
+/// drawn is reported in the outcome.
+pub fn write_charts(
+    points: &[BenchPoint],
+    title: &str,
+    svg: &Path,
+    png: &Path,
+) -> Result<ChartOutcome> {
+    let text = render_svg(points, title).map_err(|what| Error::Output {
+        path: svg.to_owned(),
+        what,
+    })?;
+    crate::output::write_atomically(svg, |w| {
+        std::io::Write::write_all(w, text.as_bytes()).map_err(|e| Error::io(svg, e))
+    })?;
+    let outcome = match render_png_pixels(points, title) {
+        Ok((w, h, pixels)) => {
+            crate::output::write_atomically(png, |out| {
+                use image::ImageEncoder;
+                image::codecs::png::PngEncoder::new(out)
+                    .write_image(&pixels, w, h, image::ExtendedColorType::Rgb8)
+                    .map_err(|e| Error::Output {
+                        path: png.to_owned(),
+                        what: e.to_string(),
+                    })
+            })?;
+            Ok(())
+        }
+        Err(why) => Err(why),
+    };
+    Ok(ChartOutcome { png: outcome })
+}
