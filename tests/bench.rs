@@ -111,8 +111,10 @@ fn quick_bench_writes_everything_and_errors_fall() {
         few.setting,
         few.error
     );
-    assert!(report.points.iter().all(|p| p.scene != "plates"
-        || p.reference.starts_with("analytic")));
+    assert!(report
+        .points
+        .iter()
+        .all(|p| p.scene != "plates" || p.reference.starts_with("analytic")));
     assert!(report.references.iter().all(|r| !r.cached));
 
     // The PNG, when written, decodes to the chart's size.

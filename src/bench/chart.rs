@@ -152,7 +152,10 @@ fn draw<DB: DrawingBackend>(
         chart
             .configure_mesh()
             .x_desc("solve wall time (s)")
-            .y_desc(format!("relative RMS image error vs {}", short_reference(&reference)))
+            .y_desc(format!(
+                "relative RMS image error vs {}",
+                short_reference(&reference)
+            ))
             .axis_desc_style((FONT, 14))
             .label_style((FONT, 12))
             .x_label_formatter(&|v| tick_label(*v, false))
@@ -266,11 +269,12 @@ fn chart_size(points: &[BenchPoint]) -> (u32, u32) {
     (PANEL_WIDTH * panels, HEIGHT)
 }
 
-/// Renders the chart to SVG text. Text layout needs font metrics, so the
-/// font is registered if it can be; without it plotters still writes the
-/// SVG (text sizes estimated).
+/// Renders the chart to SVG text. Plotters needs font metrics even for
+/// SVG text, so without a font the chart is drawn by [`plain_svg`] instead.
 pub fn render_svg(points: &[BenchPoint], title: &str) -> std::result::Result<String, String> {
-    let _ = register_font();
+    if register_font().is_err() {
+        return Ok(plain_svg(points, title));
+    }
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, chart_size(points)).into_drawing_area();
@@ -326,4 +330,184 @@ pub fn write_charts(
         Err(why) => Err(why),
     };
     Ok(ChartOutcome { png: outcome })
+}
+
+/// Escapes text for SVG.
+fn xml(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// The same chart written directly as SVG, for when no font file is found
+/// (text is then laid out by the SVG viewer): panels, log axes with decade
+/// ticks, one polyline per sweep, labelled points and a legend.
+pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
+    use std::fmt::Write;
+    let (width, height) = chart_size(points);
+    let mut svg = String::new();
+    let _ = write!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">
+<rect width="100%" height="100%" fill="white"/>
+<text x="16" y="30" font-size="22">{}</text>
+"#,
+        xml(title)
+    );
+    let mut lx = width as i32 - 3 * 215 - 10;
+    for sweep in Sweep::ALL {
+        let (c, legend) = style(sweep);
+        let colour = format!("rgb({},{},{})", c.0, c.1, c.2);
+        let _ = writeln!(
+            svg,
+            r#"<line x1="{lx}" y1="22" x2="{}" y2="22" stroke="{colour}" stroke-width="2"/><circle cx="{}" cy="22" r="4" fill="{colour}"/><text x="{}" y="27" font-size="14">{}</text>"#,
+            lx + 26,
+            lx + 13,
+            lx + 32,
+            xml(legend)
+        );
+        lx += 215;
+    }
+    for (i, name) in scene_names(points).iter().enumerate() {
+        let scene_points: Vec<&BenchPoint> = points.iter().filter(|p| &p.scene == name).collect();
+        let xr = log_range(scene_points.iter().map(|p| p.wall_seconds), 1e-3);
+        let yr = log_range(scene_points.iter().map(|p| p.error), ERROR_FLOOR);
+        let left = i as f64 * PANEL_WIDTH as f64 + 84.0;
+        let right = (i + 1) as f64 * PANEL_WIDTH as f64 - 14.0;
+        let (top, bottom) = (TITLE_HEIGHT as f64 + 40.0, height as f64 - 64.0);
+        let fx = |v: f64| {
+            left + (v.max(1e-3).ln() - xr.start.ln()) / (xr.end.ln() - xr.start.ln())
+                * (right - left)
+        };
+        let fy = |v: f64| {
+            bottom
+                - (v.max(ERROR_FLOOR).ln() - yr.start.ln()) / (yr.end.ln() - yr.start.ln())
+                    * (bottom - top)
+        };
+        let reference = scene_points
+            .first()
+            .map(|p| p.reference.clone())
+            .unwrap_or_default();
+        let _ = writeln!(
+            svg,
+            r#"<rect x="{left}" y="{top}" width="{}" height="{}" fill="none" stroke="black"/>
+<text x="{}" y="{}" font-size="19" text-anchor="middle">{}</text>
+<text x="{}" y="{}" font-size="14" text-anchor="middle">solve wall time (s)</text>
+<text transform="translate({},{}) rotate(-90)" font-size="14" text-anchor="middle">relative RMS image error vs {}</text>"#,
+            right - left,
+            bottom - top,
+            (left + right) / 2.0,
+            top - 14.0,
+            xml(name),
+            (left + right) / 2.0,
+            bottom + 44.0,
+            left - 62.0,
+            (top + bottom) / 2.0,
+            xml(&short_reference(&reference))
+        );
+        for e in (xr.start.log10().ceil() as i32)..=(xr.end.log10().floor() as i32) {
+            let v = 10f64.powi(e);
+            let x = fx(v);
+            let _ = writeln!(
+                svg,
+                r##"<line x1="{x}" y1="{top}" x2="{x}" y2="{bottom}" stroke="#ddd"/><text x="{x}" y="{}" font-size="12" text-anchor="middle">{}</text>"##,
+                bottom + 18.0,
+                tick_label(v, false)
+            );
+        }
+        for e in (yr.start.log10().ceil() as i32)..=(yr.end.log10().floor() as i32) {
+            let v = 10f64.powi(e);
+            let y = fy(v);
+            let _ = writeln!(
+                svg,
+                r##"<line x1="{left}" y1="{y}" x2="{right}" y2="{y}" stroke="#ddd"/><text x="{}" y="{}" font-size="12" text-anchor="end">{}</text>"##,
+                left - 6.0,
+                y + 4.0,
+                tick_label(v, true)
+            );
+        }
+        for sweep in Sweep::ALL {
+            let (c, _) = style(sweep);
+            let colour = format!("rgb({},{},{})", c.0, c.1, c.2);
+            let mut series: Vec<&BenchPoint> = scene_points
+                .iter()
+                .copied()
+                .filter(|p| p.method == sweep)
+                .collect();
+            series.sort_by_key(|p| match sweep {
+                Sweep::Hemicube => p.hemicube_res.unwrap_or(0) as usize,
+                Sweep::RayTrace => p.rays.unwrap_or(0),
+                Sweep::ElementSize => p.elements,
+            });
+            let path: Vec<String> = series
+                .iter()
+                .map(|p| format!("{:.1},{:.1}", fx(p.wall_seconds), fy(p.error)))
+                .collect();
+            let _ = writeln!(
+                svg,
+                r#"<polyline points="{}" fill="none" stroke="{colour}" stroke-width="2"/>"#,
+                path.join(" ")
+            );
+            for p in &series {
+                let (x, y) = (fx(p.wall_seconds), fy(p.error));
+                let _ = writeln!(
+                    svg,
+                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{colour}"/><text x="{:.1}" y="{:.1}" font-size="11" fill="{colour}">{}</text>"#,
+                    x + 6.0,
+                    y - 6.0,
+                    xml(&p.setting)
+                );
+            }
+        }
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn point(scene: &str, method: Sweep, t: f64, error: f64) -> BenchPoint {
+        BenchPoint {
+            scene: scene.into(),
+            method,
+            setting: format!("{t}"),
+            hemicube_res: Some(16),
+            rays: Some(4),
+            max_edge: 1.0,
+            elements: 10,
+            shots: 10,
+            converged: true,
+            wall_seconds: t,
+            error,
+            reference: "hemicube 1024px, converge 1e-4".into(),
+        }
+    }
+
+    #[test]
+    fn tick_labels_only_at_1_2_5() {
+        assert_eq!(tick_label(0.1, false), "0.1");
+        assert_eq!(tick_label(0.02, false), "0.02");
+        assert_eq!(tick_label(20.0, false), "20");
+        assert_eq!(tick_label(0.03, false), "");
+        assert_eq!(tick_label(5e-3, true), "5e-3");
+        assert_eq!(tick_label(7e-3, true), "");
+    }
+
+    #[test]
+    fn plain_svg_has_every_scene_and_setting() {
+        let points = vec![
+            point("a<b", Sweep::Hemicube, 0.5, 1e-2),
+            point("a<b", Sweep::Hemicube, 2.0, 1e-3),
+            point("c", Sweep::RayTrace, 0.1, 0.0),
+        ];
+        let svg = plain_svg(&points, "title & more");
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert!(svg.contains("a&lt;b") && svg.contains("title &amp; more"));
+        assert!(svg.contains("solve wall time (s)"));
+        assert!(svg.contains(">0.5<") && svg.contains(">2<"));
+        assert!(!svg.contains("NaN") && !svg.contains("inf"));
+    }
 }

@@ -216,7 +216,8 @@ impl Fnv {
     }
 
     pub fn str(&mut self, s: &str) -> &mut Self {
-        self.bytes(&(s.len() as u64).to_le_bytes()).bytes(s.as_bytes())
+        self.bytes(&(s.len() as u64).to_le_bytes())
+            .bytes(s.as_bytes())
     }
 
     pub fn f32(&mut self, x: f32) -> &mut Self {
