@@ -61,9 +61,34 @@ fn style(sweep: Sweep) -> (RGBColor, &'static str) {
     }
 }
 
-/// Smallest error drawn (a run that matches the reference exactly would
-/// otherwise be off a log axis).
+/// Smallest error drawn when no error is positive.
 const ERROR_FLOOR: f64 = 1e-6;
+
+/// Where a panel draws an error of 0 (a run that matches the reference
+/// exactly): a quarter of the smallest positive error, so the log axis is
+/// not stretched.
+fn error_floor(points: &[&BenchPoint]) -> f64 {
+    let smallest = points
+        .iter()
+        .map(|p| p.error)
+        .filter(|e| *e > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if smallest.is_finite() {
+        smallest * 0.25
+    } else {
+        ERROR_FLOOR
+    }
+}
+
+/// A point's label: its setting, marked when it used the reference's own
+/// form factors (so its error is only the convergence difference).
+fn point_label(p: &BenchPoint) -> String {
+    if p.same_as_reference {
+        format!("{} (= ref. res)", p.setting)
+    } else {
+        p.setting.clone()
+    }
+}
 
 /// Pads a positive range by a factor on both sides (log axes).
 fn log_range(values: impl Iterator<Item = f64>, floor: f64) -> std::ops::Range<f64> {
@@ -129,7 +154,8 @@ fn draw<DB: DrawingBackend>(
     for (name, panel) in names.iter().zip(panels.iter()) {
         let scene_points: Vec<&BenchPoint> = points.iter().filter(|p| &p.scene == name).collect();
         let x_range = log_range(scene_points.iter().map(|p| p.wall_seconds), 1e-3);
-        let y_range = log_range(scene_points.iter().map(|p| p.error), ERROR_FLOOR);
+        let floor = error_floor(&scene_points);
+        let y_range = log_range(scene_points.iter().map(|p| p.error), floor);
         let reference = scene_points
             .first()
             .map(|p| p.reference.clone())
@@ -163,6 +189,7 @@ fn draw<DB: DrawingBackend>(
             .light_line_style(WHITE.mix(0.0))
             .bold_line_style(BLACK.mix(0.12))
             .draw()?;
+        let mut series_by_sweep = Vec::new();
         for sweep in Sweep::ALL {
             let (colour, _) = style(sweep);
             let mut series: Vec<&BenchPoint> = scene_points
@@ -180,7 +207,7 @@ fn draw<DB: DrawingBackend>(
                 Sweep::RayTrace => p.rays.unwrap_or(0),
                 Sweep::ElementSize => p.elements,
             });
-            let xy = |p: &BenchPoint| (p.wall_seconds.max(1e-3), p.error.max(ERROR_FLOOR));
+            let xy = |p: &BenchPoint| (p.wall_seconds.max(1e-3), p.error.max(floor));
             chart.draw_series(LineSeries::new(
                 series.iter().map(|p| xy(p)),
                 colour.stroke_width(2),
@@ -190,21 +217,40 @@ fn draw<DB: DrawingBackend>(
                     .iter()
                     .map(|p| marker::<DB, _>(sweep, xy(p), colour.filled())),
             )?;
-            // Labels: hemicube above-left, rays below-right, elements right,
-            // so the curves' labels rarely collide.
+            series_by_sweep.push((sweep, colour, series));
+        }
+        // Labels: hemicube above-left, rays below-right, elements right, so
+        // the curves' labels rarely collide; a label that would overlap one
+        // already placed is left out, the ends of each curve placed first.
+        let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+        for (sweep, colour, series) in &series_by_sweep {
             let offset = match sweep {
                 Sweep::Hemicube => (-8, -16),
                 Sweep::RayTrace => (6, 5),
                 Sweep::ElementSize => (7, -6),
             };
-            chart.draw_series(series.iter().map(|p| {
-                EmptyElement::at(xy(p))
-                    + Text::new(
-                        p.setting.clone(),
-                        offset,
-                        (FONT, 11).into_font().color(&colour),
-                    )
-            }))?;
+            let n = series.len();
+            let mut order: Vec<usize> = (0..n).collect();
+            order.sort_by_key(|&i| usize::from(i != 0 && i + 1 != n));
+            for i in order {
+                let p = series[i];
+                let label = point_label(p);
+                let at = (p.wall_seconds.max(1e-3), p.error.max(floor));
+                let (px, py) = chart.backend_coord(&at);
+                let (x0, y0) = (px + offset.0, py + offset.1);
+                let b = (x0, y0, x0 + 6 * label.chars().count() as i32, y0 + 12);
+                let overlaps = placed
+                    .iter()
+                    .any(|q| b.0 < q.2 && q.0 < b.2 && b.1 < q.3 && q.1 < b.3);
+                if overlaps {
+                    continue;
+                }
+                placed.push(b);
+                chart.draw_series(std::iter::once(
+                    EmptyElement::at(at)
+                        + Text::new(label, offset, (FONT, 11).into_font().color(colour)),
+                ))?;
+            }
         }
     }
     root.present()?;
@@ -245,7 +291,7 @@ where
 /// Log-axis tick labels at 1, 2 and 5 times a power of ten only (plotters
 /// puts a tick at every integer multiple, far too many to label).
 fn tick_label(v: f64, scientific: bool) -> String {
-    if !(v > 0.0) {
+    if v.is_nan() || v <= 0.0 {
         return String::new();
     }
     let exponent = v.log10().floor();
@@ -372,7 +418,8 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
     for (i, name) in scene_names(points).iter().enumerate() {
         let scene_points: Vec<&BenchPoint> = points.iter().filter(|p| &p.scene == name).collect();
         let xr = log_range(scene_points.iter().map(|p| p.wall_seconds), 1e-3);
-        let yr = log_range(scene_points.iter().map(|p| p.error), ERROR_FLOOR);
+        let floor = error_floor(&scene_points);
+        let yr = log_range(scene_points.iter().map(|p| p.error), floor);
         let left = i as f64 * PANEL_WIDTH as f64 + 84.0;
         let right = (i + 1) as f64 * PANEL_WIDTH as f64 - 14.0;
         let (top, bottom) = (TITLE_HEIGHT as f64 + 40.0, height as f64 - 64.0);
@@ -382,7 +429,7 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
         };
         let fy = |v: f64| {
             bottom
-                - (v.max(ERROR_FLOOR).ln() - yr.start.ln()) / (yr.end.ln() - yr.start.ln())
+                - (v.max(floor).ln() - yr.start.ln()) / (yr.end.ln() - yr.start.ln())
                     * (bottom - top)
         };
         let reference = scene_points
@@ -456,7 +503,7 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
                     r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{colour}"/><text x="{:.1}" y="{:.1}" font-size="11" fill="{colour}">{}</text>"#,
                     x + 6.0,
                     y - 6.0,
-                    xml(&p.setting)
+                    xml(&point_label(p))
                 );
             }
         }
@@ -483,6 +530,8 @@ mod tests {
             wall_seconds: t,
             error,
             reference: "hemicube 1024px, converge 1e-4".into(),
+            same_as_reference: false,
+            repeats: 1,
         }
     }
 

@@ -58,6 +58,8 @@ pub const REFERENCE_ANALYTIC_CONVERGE: f64 = 1e-5;
 /// Element budget of the bench mesh (default, quick).
 pub const DEFAULT_MAX_ELEMENTS: usize = 300;
 pub const QUICK_MAX_ELEMENTS: usize = 150;
+/// Solves faster than this are timed again (up to three times in all).
+pub const REPEAT_BELOW_SECONDS: f64 = 0.5;
 /// Hemicube resolution used by the CPU methods' (unused) GPU engine, so
 /// their set-up time is not inflated by a big item buffer.
 const CPU_METHOD_HEMICUBE_RES: u32 = 16;
@@ -176,6 +178,12 @@ pub struct BenchPoint {
     pub error: f64,
     /// The reference's kind, e.g. `hemicube 1024px, converge 1e-4`.
     pub reference: String,
+    /// The run used the reference's own method, resolution and mesh (only
+    /// a looser convergence): its error is the convergence difference
+    /// alone, not the form factors' error.
+    pub same_as_reference: bool,
+    /// Solves timed (cheap ones are repeated; the fastest counts).
+    pub repeats: usize,
 }
 
 /// A scene's reference.
@@ -250,7 +258,7 @@ pub fn run_bench_on(
     let mut points = Vec::new();
     let mut references = Vec::new();
     for scene in &loaded {
-        let (reference, image) = scene_reference(
+        let (reference, reference_settings, image) = scene_reference(
             device,
             scene,
             &plan,
@@ -270,14 +278,32 @@ pub fn run_bench_on(
                 },
                 Sweep::ElementSize => format!("{} el", mesh.elements.len()),
             };
-            let measured = measure(device, scene, mesh, &camera, &settings)?;
+            let mut measured = measure(device, scene, mesh, &camera, &settings)?;
+            // Cheap solves are timed up to three times (the fastest
+            // counts): one-off stalls on a shared machine dominate them.
+            // Results are deterministic, so only the time changes.
+            let mut repeats = 1;
+            while repeats < 3 && measured.wall_seconds < REPEAT_BELOW_SECONDS {
+                let again = measure(device, scene, mesh, &camera, &settings)?;
+                measured.wall_seconds = measured.wall_seconds.min(again.wall_seconds);
+                repeats += 1;
+            }
+            let same_as_reference = reference_settings.method == settings.method
+                && reference_settings.method == FormFactorMethod::Hemicube
+                && reference_settings.hemicube_res == settings.hemicube_res
+                && mesh.elements.len() == reference.elements;
             let error = relative_rms_error(&measured.image, &image)?;
             progress(&format!(
-                "{label}: {} {setting}: {} elements, {} shots, {:.3} s, error {error:.3e}",
+                "{label}: {} {setting}: {} elements, {} shots, {:.3} s, error {error:.3e}{}",
                 sweep.name(),
                 mesh.elements.len(),
                 measured.shots,
-                measured.wall_seconds
+                measured.wall_seconds,
+                if same_as_reference {
+                    " (the reference's own form factors)"
+                } else {
+                    ""
+                }
             ));
             points.push(BenchPoint {
                 scene: label.clone(),
@@ -298,6 +324,8 @@ pub fn run_bench_on(
                 wall_seconds: measured.wall_seconds,
                 error,
                 reference: reference.kind.clone(),
+                same_as_reference,
+                repeats,
             });
             Ok::<_, Error>(())
         };
@@ -449,7 +477,7 @@ fn scene_reference(
     cache_dir: &Path,
     refresh: bool,
     progress: &mut impl FnMut(&str),
-) -> Result<(ReferenceInfo, HdrImage)> {
+) -> Result<(ReferenceInfo, SolveSettings, HdrImage)> {
     let (max_edge, mesh) = scenes::bench_mesh(scene, plan.max_elements);
     mesh.sanity_check(scene)
         .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
@@ -554,6 +582,7 @@ fn scene_reference(
             converged: stored.converged,
             wall_seconds: stored.wall_seconds,
         },
+        ref_settings,
         image,
     ))
 }
@@ -580,7 +609,7 @@ pub fn relative_rms_error(image: &HdrImage, reference: &HdrImage) -> Result<f64>
         }
     }
     let mean = sum / n.max(1) as f64;
-    if !(mean > 0.0) || !sq.is_finite() {
+    if mean.is_nan() || mean <= 0.0 || !sq.is_finite() {
         return Err(Error::Invalid(
             "the reference image is black: no error can be measured (is the camera looking at the scene?)"
                 .into(),
@@ -600,7 +629,7 @@ fn csv_field(s: &str) -> String {
 
 fn write_csv(path: &Path, points: &[BenchPoint]) -> Result<()> {
     let mut text = String::from(
-        "scene,method,setting,hemicube_res,rays,max_edge,elements,shots,converged,wall_seconds,error,reference\n",
+        "scene,method,setting,hemicube_res,rays,max_edge,elements,shots,converged,wall_seconds,repeats,error,reference,same_as_reference\n",
     );
     let opt = |v: Option<String>| v.unwrap_or_default();
     for p in points {
@@ -615,8 +644,10 @@ fn write_csv(path: &Path, points: &[BenchPoint]) -> Result<()> {
             p.shots.to_string(),
             p.converged.to_string(),
             format!("{:.6}", p.wall_seconds),
+            p.repeats.to_string(),
             format!("{:.6e}", p.error),
             csv_field(&p.reference),
+            p.same_as_reference.to_string(),
         ];
         text.push_str(&row.join(","));
         text.push('\n');
