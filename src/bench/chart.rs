@@ -223,8 +223,9 @@ fn draw<DB: DrawingBackend>(
         // the curves' labels rarely collide; a label that would overlap one
         // already placed is left out, the ends of each curve placed first.
         let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+        let right_edge = chart.plotting_area().get_pixel_range().0.end;
         for (sweep, colour, series) in &series_by_sweep {
-            let offset = match sweep {
+            let base_offset = match sweep {
                 Sweep::Hemicube => (-8, -16),
                 Sweep::RayTrace => (6, 5),
                 Sweep::ElementSize => (7, -6),
@@ -237,8 +238,12 @@ fn draw<DB: DrawingBackend>(
                 let label = point_label(p);
                 let at = (p.wall_seconds.max(1e-3), p.error.max(floor));
                 let (px, py) = chart.backend_coord(&at);
+                // Keep the label inside the plot: shift it left if needed.
+                let width = 6 * label.chars().count() as i32;
+                let mut offset = base_offset;
+                offset.0 -= (px + offset.0 + width - right_edge).max(0);
                 let (x0, y0) = (px + offset.0, py + offset.1);
-                let b = (x0, y0, x0 + 6 * label.chars().count() as i32, y0 + 12);
+                let b = (x0, y0, x0 + width, y0 + 12);
                 let overlaps = placed
                     .iter()
                     .any(|q| b.0 < q.2 && q.0 < b.2 && b.1 < q.3 && q.1 < b.3);
