@@ -5,6 +5,7 @@
 //! Pure CPU modules never touch the Vulkan layer; `unsafe` lives only in `gpu`.
 
 pub mod app;
+pub mod bench;
 pub mod blockers;
 pub mod error;
 pub mod formfactor;
