@@ -45,6 +45,10 @@ enum Command {
     Formfactors(FormFactorArgs),
     /// Write the element mesh alone (.obj or .ply), with mesher statistics.
     Mesh(MeshOnlyArgs),
+    /// Speed against accuracy of the form-factor methods: sweeps hemicube
+    /// resolution, rays and element size, measures solve time and image error
+    /// against a reference, writes bench.json, bench.csv, bench.svg, bench.png.
+    Bench(BenchArgs),
 }
 
 #[derive(Args)]
@@ -185,6 +189,27 @@ struct RenderArgs {
 }
 
 #[derive(Args)]
+struct BenchArgs {
+    /// Scenes: OBJ paths, built-in names, or `plates` (an unoccluded scene
+    /// with an analytic reference). Default: plates, simple, cornell.
+    scenes: Vec<String>,
+    /// A short sweep (about 10 s on lavapipe), as CI runs it.
+    #[arg(long)]
+    quick: bool,
+    /// Folder for the results and the reference cache.
+    #[arg(short, long, default_value = "bench", value_name = "DIR")]
+    out_dir: PathBuf,
+    /// Element budget of each scene's bench mesh (default 300; quick 150).
+    #[arg(long, value_name = "N")]
+    max_elements: Option<usize>,
+    /// Recompute the references even when cached.
+    #[arg(long)]
+    refresh_reference: bool,
+    #[command(flatten)]
+    gpu: DeviceArgs,
+}
+
+#[derive(Args)]
 struct MeshOnlyArgs {
     /// Scene: a path to an .obj file, or a built-in name.
     scene: String,
@@ -248,6 +273,7 @@ fn main() -> ExitCode {
         Some(Command::Devices) => devices(),
         Some(Command::Formfactors(args)) => formfactors(args),
         Some(Command::Mesh(args)) => mesh_only(args),
+        Some(Command::Bench(args)) => bench(args),
         None => render(cli.render),
     };
     match result {
@@ -513,6 +539,50 @@ fn print_summary(r: &RenderReport, profile: bool) {
     if let Some(e) = &r.export {
         println!("  wrote     {}", e.display());
     }
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    let options = vkrad::bench::BenchOptions {
+        scenes: args.scenes,
+        quick: args.quick,
+        out_dir: args.out_dir,
+        device: DeviceOptions {
+            selector: args.gpu.device,
+            validate: args.gpu.validate,
+        },
+        max_elements: args.max_elements,
+        refresh_reference: args.refresh_reference,
+    };
+    let report = vkrad::bench::run_bench(&options, |line| eprintln!("  {line}"))?;
+    println!(
+        "vkrad bench on {}: {} points in {:.1} s",
+        report.device,
+        report.points.len(),
+        report.total_seconds
+    );
+    for r in &report.references {
+        println!(
+            "  reference {}: {}, {} elements, {} shots{}",
+            r.scene,
+            r.kind,
+            r.elements,
+            r.shots,
+            if r.cached {
+                " (cached)".to_string()
+            } else {
+                format!(", computed in {:.1} s", r.wall_seconds)
+            }
+        );
+    }
+    for path in [&report.json, &report.csv, &report.svg] {
+        println!("  wrote     {}", path.display());
+    }
+    match (&report.png, &report.png_skipped) {
+        (Some(png), _) => println!("  wrote     {}", png.display()),
+        (None, Some(why)) => println!("  skipped   PNG: {why}"),
+        (None, None) => {}
+    }
+    Ok(())
 }
 
 fn mesh_only(args: MeshOnlyArgs) -> Result<()> {

@@ -17,8 +17,9 @@
 //! pixels where either image is not black (the background does not count).
 //!
 //! The reference is the analytic (unoccluded) solution converged to 1e-5
-//! for scenes where nothing blocks anything, else the hemicube at 1024
-//! pixels (512 for `quick`) converged to 1e-4, both on the bench mesh. It is cached in
+//! for scenes where nothing blocks anything, else ray tracing with 1024
+//! rays per vertex (256 for `quick`) converged to 1e-4, both on the bench
+//! mesh and both exact at the vertices the image interpolates. It is cached in
 //! `OUT/cache/`, keyed by a hash of the scene's content (geometry,
 //! materials, camera), the mesh settings, the method and the image size.
 //!
@@ -132,6 +133,8 @@ pub struct SweepPlan {
     pub max_elements: usize,
     /// Hemicube resolution of the reference for occluded scenes.
     pub reference_res: u32,
+    /// Rays per vertex of the reference for occluded scenes.
+    pub reference_rays: usize,
 }
 
 impl SweepPlan {
@@ -144,6 +147,7 @@ impl SweepPlan {
                 element_size_res: 64,
                 max_elements: max_elements.unwrap_or(QUICK_MAX_ELEMENTS),
                 reference_res: QUICK_REFERENCE_HEMICUBE_RES,
+                reference_rays: 256,
             }
         } else {
             SweepPlan {
@@ -153,6 +157,7 @@ impl SweepPlan {
                 element_size_res: 256,
                 max_elements: max_elements.unwrap_or(DEFAULT_MAX_ELEMENTS),
                 reference_res: REFERENCE_HEMICUBE_RES,
+                reference_rays: 1024,
             }
         }
     }
@@ -450,7 +455,7 @@ fn measure(
     let t = Instant::now();
     let solution = solve(device, scene, mesh, settings, |_| true)?;
     let wall_seconds = t.elapsed().as_secs_f64();
-    let radiance = vertex_radiance(mesh, &solution.radiosity);
+    let radiance = vertex_radiance(mesh, &solution);
     let image = render_image(
         device,
         scene,
@@ -458,6 +463,7 @@ fn measure(
         &radiance,
         camera,
         ERROR_IMAGE_SIZE,
+        false,
         &mut StageTimes::default(),
     )?;
     Ok(Measured {
@@ -494,15 +500,21 @@ fn scene_reference(
         )
     } else {
         (
+            // Ray tracing with many rays: like the analytic reference it is
+            // exact at the vertices the image interpolates (Wallace's
+            // vertex-to-source), where a hemicube reference would carry the
+            // hemicube's own element averaging into every comparison.
             SolveSettings {
-                method: FormFactorMethod::Hemicube,
-                hemicube_res: plan.reference_res,
+                method: FormFactorMethod::RayTrace {
+                    rays: plan.reference_rays,
+                },
+                hemicube_res: CPU_METHOD_HEMICUBE_RES,
                 converge: REFERENCE_HEMICUBE_CONVERGE,
                 max_shots: 1_000_000,
             },
             format!(
-                "hemicube {}px, converge {REFERENCE_HEMICUBE_CONVERGE:e}",
-                plan.reference_res
+                "ray trace {} rays, converge {REFERENCE_HEMICUBE_CONVERGE:e}",
+                plan.reference_rays
             ),
         )
     };

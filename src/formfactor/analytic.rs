@@ -202,6 +202,16 @@ pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize)
 /// # Panics
 /// If `shooter` is not an element index.
 pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize) -> Vec<f32> {
+    element_and_vertex_form_factors_analytic(scene, mesh, shooter).0
+}
+
+/// [`element_form_factors_analytic`], plus the exact point form factor
+/// F(vertex <- shooter) at every mesh vertex (0 on the shooter's patch).
+pub fn element_and_vertex_form_factors_analytic(
+    scene: &Scene,
+    mesh: &Mesh,
+    shooter: usize,
+) -> (Vec<f32>, Vec<f32>) {
     let src = &mesh.elements[shooter];
     let poly: Vec<DVec3> = src
         .corners()
@@ -211,7 +221,10 @@ pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize)
     let n_src = src.normal.as_dvec3();
     let a_src = f64::from(src.area);
     if a_src.is_nan() || a_src <= 0.0 {
-        return vec![0.0; mesh.elements.len()];
+        return (
+            vec![0.0; mesh.elements.len()],
+            vec![0.0; mesh.vertices.len()],
+        );
     }
     let (points, normals, patches) = crate::formfactor::raytrace::vertex_frames(scene, mesh);
     let per_vertex: Vec<f64> = (0..mesh.vertices.len())
@@ -228,7 +241,8 @@ pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize)
         .map(|v| (*v - poly[0]).length())
         .fold(0.0, f64::max);
     let centre = src.centre.as_dvec3();
-    mesh.elements
+    let per_element = mesh
+        .elements
         .par_iter()
         .map(|e| {
             let coplanar = e.normal.as_dvec3().dot(n_src).abs() > 1.0 - 1e-6
@@ -241,7 +255,11 @@ pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize)
                 corners.iter().map(|&v| per_vertex[v as usize]).sum::<f64>() / corners.len() as f64;
             (mean * f64::from(e.area) / a_src) as f32
         })
-        .collect()
+        .collect();
+    (
+        per_element,
+        per_vertex.into_iter().map(|f| f as f32).collect(),
+    )
 }
 
 #[cfg(test)]

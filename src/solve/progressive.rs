@@ -7,7 +7,7 @@ use glam::Vec3;
 
 use super::heap::IndexedMaxHeap;
 use crate::error::{Error, Result};
-use crate::formfactor::analytic::element_form_factors_analytic;
+use crate::formfactor::analytic::element_and_vertex_form_factors_analytic;
 use crate::formfactor::hemicube::Hemicube;
 use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::hemicube::{HemicubeEngine, HemicubeInputs, ItemVertex};
@@ -75,8 +75,9 @@ pub struct Solution {
     /// Radiosity B per element (rgb, W/m^2 in the scene's units).
     pub radiosity: Vec<[f32; 3]>,
     /// Radiosity B at every mesh vertex where the method computes it there
-    /// (ray tracing: Wallace's vertex-to-source), for display; `None`: derive
-    /// it from the elements (`Mesh::vertex_values`).
+    /// (ray tracing: Wallace's vertex-to-source; analytic: exact point form
+    /// factors), for display; `None` (hemicube): derive it from the elements
+    /// (`Mesh::vertex_values`).
     pub vertex_radiosity: Option<Vec<[f32; 3]>>,
     pub shots: usize,
     /// Unshot power / emitted power at the end.
@@ -200,7 +201,9 @@ impl<'a> CpuFormFactors<'a> {
                 (elements, Some(vertices))
             }
             CpuFormFactors::Analytic { scene, mesh } => {
-                (element_form_factors_analytic(scene, mesh, shooter), None)
+                let (elements, vertices) =
+                    element_and_vertex_form_factors_analytic(scene, mesh, shooter);
+                (elements, Some(vertices))
             }
         }
     }
@@ -256,7 +259,7 @@ pub fn solve(
     }
     let vertex_material = |v: usize| scene.material_of(&scene.patches[vertex_patch[v] as usize]);
     let mut vertex_radiosity: Option<Vec<[f32; 3]>> = match &cpu_form_factors {
-        Some(CpuFormFactors::RayTrace { .. }) => Some(
+        Some(_) => Some(
             (0..mesh.vertices.len())
                 .map(|v| (vertex_material(v).emission * std::f32::consts::PI).to_array())
                 .collect(),
