@@ -205,6 +205,11 @@ struct BenchArgs {
     /// Recompute the references even when cached.
     #[arg(long)]
     refresh_reference: bool,
+    /// Instead: image error against element count for the meshers (uniform,
+    /// discontinuity + refinement, discontinuity a posteriori) on SCENE
+    /// (default simple): meshers.{json,svg,png}.
+    #[arg(long)]
+    meshers: bool,
     #[command(flatten)]
     gpu: DeviceArgs,
 }
@@ -542,6 +547,47 @@ fn print_summary(r: &RenderReport, profile: bool) {
 }
 
 fn bench(args: BenchArgs) -> Result<()> {
+    if args.meshers {
+        let scene = args
+            .scenes
+            .first()
+            .cloned()
+            .unwrap_or_else(|| "simple".into());
+        let device = Device::new(&DeviceOptions {
+            selector: args.gpu.device.clone(),
+            validate: args.gpu.validate,
+        })?;
+        let t = Instant::now();
+        let report = vkrad::bench::meshers::run_mesher_bench(
+            &device,
+            &scene,
+            args.quick,
+            &args.out_dir,
+            |line| eprintln!("  {line}"),
+        )?;
+        device.check_validation()?;
+        println!(
+            "vkrad bench --meshers on {}: {} points in {:.1} s (reference: uniform, {} elements)",
+            device.info.name,
+            report.points.len(),
+            t.elapsed().as_secs_f64(),
+            report.reference_elements
+        );
+        for p in &report.points {
+            println!(
+                "  {:<28} {:<16} {:>7} elements  error {:.4}",
+                p.mesher, p.setting, p.elements, p.error
+            );
+        }
+        println!("  wrote     {}", report.json.display());
+        for path in report.svg.iter().chain(&report.png) {
+            println!("  wrote     {}", path.display());
+        }
+        if let Some(why) = &report.png_skipped {
+            println!("  skipped   charts: {why}");
+        }
+        return Ok(());
+    }
     let options = vkrad::bench::BenchOptions {
         scenes: args.scenes,
         quick: args.quick,

@@ -32,7 +32,7 @@ pub struct ChartOutcome {
 
 /// Registers DejaVu Sans as plotters' `sans-serif` once per process.
 /// The font bytes are leaked: plotters needs them `'static`.
-fn register_font() -> std::result::Result<(), String> {
+pub(crate) fn register_font() -> std::result::Result<(), String> {
     static REGISTERED: OnceLock<std::result::Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

@@ -26,6 +26,7 @@
 //! Outputs in `OUT/`: `bench.json`, `bench.csv`, `bench.svg`, `bench.png`.
 
 pub mod chart;
+pub mod meshers;
 pub mod reference;
 pub mod scenes;
 
