@@ -6,28 +6,17 @@
 
 use std::time::Instant;
 
+mod common;
+
+use common::{arg, device_selector, median};
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::solve::{solve, SolveSettings};
-
-fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
-    let args: Vec<String> = std::env::args().collect();
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 fn main() {
     let runs: usize = arg("--runs", 3);
     let res: u32 = arg("--res", 256);
     let max_shots: usize = arg("--max-shots", 100_000);
-    let selector: Option<String> = std::env::args().skip_while(|a| a != "--device").nth(1);
+    let selector = device_selector();
     let scene = vkrad::scene::load_builtin("cornell")
         .expect("built-in cornell")
         .expect("cornell loads");

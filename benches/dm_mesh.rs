@@ -7,27 +7,16 @@
 
 use std::time::Instant;
 
+mod common;
+
+use common::{arg, device_selector, median};
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::meshing::{build_mesh, MeshSettings, Mesher};
-
-fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
-    let args: Vec<String> = std::env::args().collect();
-    args.iter()
-        .position(|a| a == name)
-        .and_then(|i| args.get(i + 1))
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
-}
 
 fn main() {
     let runs: usize = arg("--runs", 5);
     let dm_res: u32 = arg("--dm-res", 128);
-    let selector: Option<String> = std::env::args().skip_while(|a| a != "--device").nth(1);
+    let selector = device_selector();
     let device = Device::new(&DeviceOptions {
         selector,
         validate: false,

@@ -349,6 +349,19 @@ pub fn render_png_pixels(
     Ok((w, h, pixels))
 }
 
+/// Writes an 8-bit RGB PNG atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    crate::output::write_atomically(path, |out| {
+        use image::ImageEncoder;
+        image::codecs::png::PngEncoder::new(out)
+            .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+            .map_err(|e| Error::Output {
+                path: path.to_owned(),
+                what: e.to_string(),
+            })
+    })
+}
+
 /// Writes `svg` (always) and `png` (when a font is found), atomically.
 /// A chart that cannot be drawn at all is an error; a PNG that cannot be
 /// drawn is reported in the outcome.
@@ -367,15 +380,7 @@ pub fn write_charts(
     })?;
     let outcome = match render_png_pixels(points, title) {
         Ok((w, h, pixels)) => {
-            crate::output::write_atomically(png, |out| {
-                use image::ImageEncoder;
-                image::codecs::png::PngEncoder::new(out)
-                    .write_image(&pixels, w, h, image::ExtendedColorType::Rgb8)
-                    .map_err(|e| Error::Output {
-                        path: png.to_owned(),
-                        what: e.to_string(),
-                    })
-            })?;
+            write_png(png, w, h, &pixels)?;
             Ok(())
         }
         Err(why) => Err(why),

@@ -168,15 +168,7 @@ pub fn run_mesher_bench(
                 path: png_path.clone(),
                 what,
             })?;
-            crate::output::write_atomically(&png_path, |out| {
-                use image::ImageEncoder;
-                image::codecs::png::PngEncoder::new(out)
-                    .write_image(&pixels, w, h, image::ExtendedColorType::Rgb8)
-                    .map_err(|e| Error::Output {
-                        path: png_path.clone(),
-                        what: e.to_string(),
-                    })
-            })?;
+            super::chart::write_png(&png_path, w, h, &pixels)?;
             (Some(svg), Some(png_path), None)
         }
     };

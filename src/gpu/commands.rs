@@ -155,3 +155,86 @@ pub fn barriers(
     // SAFETY: cmd is recording; barriers reference live resources.
     unsafe { device.raw.cmd_pipeline_barrier2(cmd, &info) };
 }
+
+/// Begins dynamic rendering over `extent` into one colour attachment
+/// cleared to `clear` and a depth (and, with `stencil`, stencil)
+/// attachment cleared to 0: reverse-Z's "infinitely far", stencil unmarked.
+pub fn begin_rendering(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    extent: vk::Extent2D,
+    color: (vk::ImageView, vk::ClearColorValue),
+    depth: vk::ImageView,
+    stencil: bool,
+) {
+    let color = [vk::RenderingAttachmentInfo::default()
+        .image_view(color.0)
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue { color: color.1 })];
+    let depth_layout = if stencil {
+        vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL
+    } else {
+        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL
+    };
+    let depth = vk::RenderingAttachmentInfo::default()
+        .image_view(depth)
+        .image_layout(depth_layout)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+        .clear_value(vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 0.0,
+                stencil: 0,
+            },
+        });
+    let mut rendering = vk::RenderingInfo::default()
+        .render_area(vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        })
+        .layer_count(1)
+        .color_attachments(&color)
+        .depth_attachment(&depth);
+    if stencil {
+        rendering = rendering.stencil_attachment(&depth);
+    }
+    // SAFETY: cmd is recording; the views are live attachments in the
+    // layouts named above (the callers' barriers put them there).
+    unsafe { device.raw.cmd_begin_rendering(cmd, &rendering) };
+}
+
+/// Sets the viewport and the scissor to the rectangle (x, y, width, height).
+pub fn set_viewport(device: &Device, cmd: vk::CommandBuffer, (x, y, w, h): (u32, u32, u32, u32)) {
+    // SAFETY: cmd is recording with a pipeline whose viewport and scissor
+    // are dynamic.
+    unsafe {
+        device.raw.cmd_set_viewport(
+            cmd,
+            0,
+            &[vk::Viewport {
+                x: x as f32,
+                y: y as f32,
+                width: w as f32,
+                height: h as f32,
+                min_depth: 0.0,
+                max_depth: 1.0,
+            }],
+        );
+        device.raw.cmd_set_scissor(
+            cmd,
+            0,
+            &[vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: x as i32,
+                    y: y as i32,
+                },
+                extent: vk::Extent2D {
+                    width: w,
+                    height: h,
+                },
+            }],
+        );
+    }
+}

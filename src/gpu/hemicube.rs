@@ -10,7 +10,9 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::commands::{
+    barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
+};
 use super::context::Device;
 use super::memory::{Buffer, Image};
 use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
@@ -365,40 +367,22 @@ impl HemicubeEngine {
         // SAFETY: cmd is recording; every handle is owned by self and outlives it.
         unsafe {
             raw.cmd_fill_buffer(cmd, self.ff.raw(), 0, vk::WHOLE_SIZE, 0);
-            let color = [vk::RenderingAttachmentInfo::default()
-                .image_view(self.item.view())
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(vk::ClearValue {
-                    color: vk::ClearColorValue {
+            begin_rendering(
+                d,
+                cmd,
+                vk::Extent2D {
+                    width: w,
+                    height: h,
+                },
+                (
+                    self.item.view(),
+                    vk::ClearColorValue {
                         uint32: [NO_ELEMENT; 4],
                     },
-                })];
-            let depth = vk::RenderingAttachmentInfo::default()
-                .image_view(self.depth.view())
-                .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                // Reverse-Z: 0 is infinitely far.
-                .clear_value(vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue {
-                        depth: 0.0,
-                        stencil: 0,
-                    },
-                });
-            let rendering = vk::RenderingInfo::default()
-                .render_area(vk::Rect2D {
-                    offset: vk::Offset2D::default(),
-                    extent: vk::Extent2D {
-                        width: w,
-                        height: h,
-                    },
-                })
-                .layer_count(1)
-                .color_attachments(&color)
-                .depth_attachment(&depth);
-            raw.cmd_begin_rendering(cmd, &rendering);
+                ),
+                self.depth.view(),
+                false,
+            );
             raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
             raw.cmd_bind_descriptor_sets(
                 cmd,
@@ -410,32 +394,7 @@ impl HemicubeEngine {
             );
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self._vertices.raw()], &[0]);
             for (face, &(x, y, fw, fh)) in self.face_viewports.iter().enumerate() {
-                raw.cmd_set_viewport(
-                    cmd,
-                    0,
-                    &[vk::Viewport {
-                        x: x as f32,
-                        y: y as f32,
-                        width: fw as f32,
-                        height: fh as f32,
-                        min_depth: 0.0,
-                        max_depth: 1.0,
-                    }],
-                );
-                raw.cmd_set_scissor(
-                    cmd,
-                    0,
-                    &[vk::Rect2D {
-                        offset: vk::Offset2D {
-                            x: x as i32,
-                            y: y as i32,
-                        },
-                        extent: vk::Extent2D {
-                            width: fw,
-                            height: fh,
-                        },
-                    }],
-                );
+                set_viewport(d, cmd, (x, y, fw, fh));
                 raw.cmd_push_constants(
                     cmd,
                     self.bindings.layout,

@@ -5,7 +5,9 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::commands::{
+    barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
+};
 use super::context::Device;
 use super::hemicube::upload;
 use super::memory::{Buffer, Image};
@@ -157,51 +159,21 @@ pub fn render_lit_mesh(
     let raw = &device.raw;
     // SAFETY: cmd is recording; all handles live until after the fence wait.
     unsafe {
-        let color_attachment = [vk::RenderingAttachmentInfo::default()
-            .image_view(color.view())
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
+        begin_rendering(
+            device,
+            cmd,
+            extent,
+            (
+                color.view(),
+                vk::ClearColorValue {
                     float32: [0.0, 0.0, 0.0, 1.0],
                 },
-            })];
-        let depth_attachment = vk::RenderingAttachmentInfo::default()
-            .image_view(depth.view())
-            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: 0.0,
-                    stencil: 0,
-                },
-            });
-        let area = vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent,
-        };
-        let rendering = vk::RenderingInfo::default()
-            .render_area(area)
-            .layer_count(1)
-            .color_attachments(&color_attachment)
-            .depth_attachment(&depth_attachment);
-        raw.cmd_begin_rendering(cmd, &rendering);
-        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
-        raw.cmd_set_viewport(
-            cmd,
-            0,
-            &[vk::Viewport {
-                x: 0.0,
-                y: 0.0,
-                width: width as f32,
-                height: height as f32,
-                min_depth: 0.0,
-                max_depth: 1.0,
-            }],
+            ),
+            depth.view(),
+            false,
         );
-        raw.cmd_set_scissor(cmd, 0, &[area]);
+        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+        set_viewport(device, cmd, (0, 0, width, height));
         raw.cmd_push_constants(
             cmd,
             bindings.layout,

@@ -13,7 +13,9 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::commands::{barriers, buffer_barrier, image_barrier, Commands};
+use super::commands::{
+    barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
+};
 use super::context::Device;
 use super::hemicube::{upload, ItemVertex};
 use super::memory::{Buffer, Image};
@@ -306,71 +308,28 @@ impl VisibilityPass {
         // SAFETY: cmd is recording; every handle is owned by self.
         unsafe {
             raw.cmd_fill_buffer(cmd, self.flags.raw(), 0, vk::WHOLE_SIZE, 0);
-            let color = [vk::RenderingAttachmentInfo::default()
-                .image_view(self.item.view())
-                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::STORE)
-                .clear_value(vk::ClearValue {
-                    color: vk::ClearColorValue {
+            begin_rendering(
+                &d,
+                cmd,
+                vk::Extent2D {
+                    width: side,
+                    height: side,
+                },
+                (
+                    self.item.view(),
+                    vk::ClearColorValue {
                         uint32: [NO_POLYGON; 4],
                     },
-                })];
-            let depth = vk::RenderingAttachmentInfo::default()
-                .image_view(self.depth.view())
-                .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-                .load_op(vk::AttachmentLoadOp::CLEAR)
-                .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .clear_value(vk::ClearValue {
-                    depth_stencil: vk::ClearDepthStencilValue {
-                        depth: 0.0,
-                        stencil: 0,
-                    },
-                });
-            let rendering = vk::RenderingInfo::default()
-                .render_area(vk::Rect2D {
-                    offset: vk::Offset2D::default(),
-                    extent: vk::Extent2D {
-                        width: side,
-                        height: side,
-                    },
-                })
-                .layer_count(1)
-                .color_attachments(&color)
-                .depth_attachment(&depth)
-                .stencil_attachment(&depth);
-            raw.cmd_begin_rendering(cmd, &rendering);
+                ),
+                self.depth.view(),
+                true,
+            );
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw()], &[0]);
             for (i, tile) in batch.iter().enumerate() {
                 let i = i as u32;
                 let x = (i % self.tiles_per_side) * self.tile_res;
                 let y = (i / self.tiles_per_side) * self.tile_res;
-                raw.cmd_set_viewport(
-                    cmd,
-                    0,
-                    &[vk::Viewport {
-                        x: x as f32,
-                        y: y as f32,
-                        width: self.tile_res as f32,
-                        height: self.tile_res as f32,
-                        min_depth: 0.0,
-                        max_depth: 1.0,
-                    }],
-                );
-                raw.cmd_set_scissor(
-                    cmd,
-                    0,
-                    &[vk::Rect2D {
-                        offset: vk::Offset2D {
-                            x: x as i32,
-                            y: y as i32,
-                        },
-                        extent: vk::Extent2D {
-                            width: self.tile_res,
-                            height: self.tile_res,
-                        },
-                    }],
-                );
+                set_viewport(&d, cmd, (x, y, self.tile_res, self.tile_res));
                 raw.cmd_push_constants(
                     cmd,
                     self.draw_bindings.layout,
