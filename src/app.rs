@@ -16,7 +16,7 @@ use crate::meshing::{
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
-use crate::render::{default_camera, render_image, vertex_radiance};
+use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::{solve, Progress, Solution, SolveSettings};
 
@@ -39,6 +39,9 @@ pub struct RenderJob {
     pub check_mesh: bool,
     /// Draw the mesh edges over the image.
     pub wireframe: bool,
+    /// Show unfinished solutions (max shots reached, interrupted) with the
+    /// ambient term added to the image.
+    pub ambient: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): re-mesh
     /// where corner radiosities differ by more than `gradient` x the mean,
     /// and solve again.
@@ -64,6 +67,7 @@ impl RenderJob {
             dm_res: 128,
             check_mesh: true,
             wireframe: false,
+            ambient: true,
             adaptive: 0,
             gradient: 0.25,
             solve: SolveSettings::default(),
@@ -109,6 +113,8 @@ pub struct RenderReport {
     pub image: HdrImage,
     /// Exposure used for the PNG/PLY colours (given or automatic).
     pub exposure: f32,
+    /// The ambient term added to the image of an unfinished solution.
+    pub ambient: Option<glam::Vec3>,
     pub output: PathBuf,
     pub export: Option<PathBuf>,
     /// Things the user should know about the result (besides scene warnings).
@@ -191,6 +197,7 @@ impl RenderReport {
                 "max_shots": job.solve.max_shots,
                 "size": [job.size.0, job.size.1],
                 "exposure": self.exposure,
+                "ambient": self.ambient.map(|a| a.to_array()),
             },
             "scene": {
                 "source": self.scene.source.display().to_string(),
@@ -332,7 +339,15 @@ pub fn run_render(
 
     let t = Instant::now();
     let mut gpu_times = solution.times.clone();
-    let radiance = vertex_radiance(&mesh, &solution);
+    // An unfinished solution is shown with the ambient term standing in
+    // for the light not yet shot; the exported mesh keeps the solved values.
+    let mut shown = crate::render::vertex_radiosity(&mesh, &solution);
+    let ambient = (job.ambient && !solution.converged)
+        .then(|| crate::render::ambient_term(&scene, &mesh, &solution.unshot));
+    if let Some(a) = ambient {
+        crate::render::add_ambient(&scene, &mesh, &mut shown, a);
+    }
+    let radiance = crate::render::radiance_of(shown);
     let image = render_image(
         &device,
         &scene,
@@ -366,6 +381,7 @@ pub fn run_render(
         solution,
         image,
         exposure,
+        ambient,
         output,
         export: job.export.clone(),
         warnings,

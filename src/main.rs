@@ -169,6 +169,10 @@ struct RenderArgs {
     /// fraction of the mean radiosity (with --adaptive).
     #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
     gradient: f32,
+    /// Show an unfinished solution (max shots reached, Ctrl-C) without the
+    /// ambient term (Cohen et al. 1988) that stands in for unshot light.
+    #[arg(long)]
+    no_ambient: bool,
     /// Draw the mesh edges over the image (black lines).
     #[arg(long)]
     wireframe: bool,
@@ -329,6 +333,7 @@ fn render(args: RenderArgs) -> Result<()> {
     job.mesher = args.mesh.mesher();
     job.dm_res = args.mesh.dm_res;
     job.wireframe = args.wireframe;
+    job.ambient = !args.no_ambient;
     job.adaptive = args.adaptive;
     job.gradient = args.gradient;
     job.check_mesh = !args.no_check_mesh;
@@ -495,6 +500,12 @@ fn print_summary(r: &RenderReport, profile: bool) {
             " (NOT converged: raise --max-shots)"
         }
     );
+    if let Some(a) = r.ambient {
+        println!(
+            "  ambient   image shows the unfinished solution plus an ambient term ({:.3} {:.3} {:.3}; --no-ambient to omit)",
+            a.x, a.y, a.z
+        );
+    }
     let stages: Vec<String> = r
         .wall
         .iter()

@@ -97,3 +97,45 @@ fn closed_room_energy_balance_rho_0_5() {
 fn closed_room_energy_balance_rho_0_8() {
     check(0.8);
 }
+
+/// The ambient term (Cohen et al. 1988) makes an early preview closer to
+/// the converged image: the mean radiance of a partial solution plus
+/// ambient is nearer the converged mean than the partial solution alone.
+#[test]
+fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
+    use vkrad::app::{run_render, RenderJob};
+    let device = device();
+    let dir = std::env::temp_dir().join(format!("vkrad-ambient-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mean = |max_shots: usize, ambient: bool| {
+        let mut job = RenderJob::new("cornell");
+        job.output = Some(dir.join("out.hdr"));
+        job.size = (48, 48);
+        job.max_edge = Some(140.0);
+        job.ambient = ambient;
+        job.solve = SolveSettings {
+            hemicube_res: 32,
+            converge: 1e-3,
+            max_shots,
+            ..Default::default()
+        };
+        let r = run_render(&job, Some(device.clone()), |_| true).unwrap();
+        let sum: f64 = r
+            .image
+            .pixels
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) as f64)
+            .sum();
+        (sum / r.image.pixels.len() as f64, r.ambient.is_some())
+    };
+    let (converged, used) = mean(100_000, true);
+    assert!(!used, "a converged solution gets no ambient term");
+    let (plain, _) = mean(40, false);
+    let (with_ambient, used) = mean(40, true);
+    assert!(used);
+    assert_validation_clean(&device);
+    std::fs::remove_dir_all(&dir).ok();
+    eprintln!("mean radiance: converged {converged:.4}, 40 shots {plain:.4}, 40 shots + ambient {with_ambient:.4}");
+    assert!(plain < converged && with_ambient > plain);
+    assert!((with_ambient - converged).abs() < (plain - converged).abs());
+}

@@ -85,6 +85,9 @@ pub struct Solution {
     pub converged: bool,
     /// The caller stopped the solve early (Ctrl-C): the result is partial.
     pub interrupted: bool,
+    /// Unshot radiosity per element at the end (rgb): what an ambient term
+    /// stands in for in a preview.
+    pub unshot: Vec<[f32; 3]>,
     /// Residual before the first shot and after each shot.
     pub residual_history: Vec<f64>,
     /// Emitted power (mean over rgb) in the scene's units.
@@ -344,6 +347,7 @@ pub fn solve(
     Ok(Solution {
         radiosity,
         vertex_radiosity,
+        unshot: unshot.iter().map(|u| [u[0], u[1], u[2]]).collect(),
         shots,
         residual: unshot_power / emitted_power,
         converged,
