@@ -9,10 +9,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::{self, Mesh};
-use crate::meshing::{
-    build_mesh, build_mesh_with_points, check_mesh, gradient_points, MeshReport, MeshSettings,
-    Mesher,
-};
+use crate::meshing::{check_mesh, gradient_points, MeshBuilder, MeshReport, MeshSettings, Mesher};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
@@ -265,6 +262,11 @@ pub fn run_render(
     let camera = job.camera.apply(default_camera(&scene));
     wall.push(("load", t.elapsed().as_secs_f64()));
 
+    if job.adaptive > 0 && job.mesher == Mesher::Uniform {
+        return Err(Error::Invalid(
+            "--adaptive refines discontinuity meshes: add --mesh discontinuity".into(),
+        ));
+    }
     let device = match device {
         Some(d) => d,
         None => Device::new(&job.device)?,
@@ -278,7 +280,8 @@ pub fn run_render(
         max_edge,
         dm_res: job.dm_res,
     };
-    let (mesh, mesh_report) = build_mesh(&device, &scene, &settings)?;
+    let mut builder = MeshBuilder::new(&device, &scene, settings)?;
+    let (mut mesh, mut mesh_report) = builder.build(&[])?;
     if job.check_mesh {
         check_mesh(&mesh, &scene, job.mesher)?;
     }
@@ -288,13 +291,7 @@ pub fn run_render(
     let mut on_progress = on_progress;
     let mut solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
-    let (mut mesh, mut mesh_report) = (mesh, mesh_report);
     let mut adaptive_elements = vec![mesh.elements.len()];
-    if job.adaptive > 0 && job.mesher == Mesher::Uniform {
-        return Err(Error::Invalid(
-            "--adaptive refines discontinuity meshes: add --mesh discontinuity".into(),
-        ));
-    }
     let mut extra_points = Vec::new();
     for _ in 0..job.adaptive {
         if solution.interrupted {
@@ -307,7 +304,7 @@ pub fn run_render(
             break;
         }
         extra_points.extend(points);
-        let (refined, report) = build_mesh_with_points(&device, &scene, &settings, &extra_points)?;
+        let (refined, report) = builder.build(&extra_points)?;
         if job.check_mesh {
             check_mesh(&refined, &scene, job.mesher)?;
         }

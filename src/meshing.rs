@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 
-use crate::blockers::gpu_blockers;
+use crate::blockers::{gpu_blockers, BlockerTable};
 use crate::error::{Error, Result};
 use crate::gpu::Device;
 use crate::mesh::discontinuity::{discontinuity_mesh, DiscontinuityOptions, DiscontinuityStats};
@@ -58,53 +58,79 @@ pub fn build_mesh(
     scene: &Scene,
     settings: &MeshSettings,
 ) -> Result<(Mesh, MeshReport)> {
-    build_mesh_with_points(device, scene, settings, &[])
+    MeshBuilder::new(device, scene, *settings)?.build(&[])
 }
 
-/// [`build_mesh`] with extra vertices per patch (a-posteriori refinement);
-/// only the discontinuity mesher takes them.
-pub fn build_mesh_with_points(
-    device: &Arc<Device>,
-    scene: &Scene,
-    settings: &MeshSettings,
-    extra_points: &[(u32, Vec3)],
-) -> Result<(Mesh, MeshReport)> {
-    if !(settings.max_edge.is_finite() && settings.max_edge > 0.0) {
-        return Err(Error::Invalid(format!(
-            "--max-edge must be a positive length, got {}",
-            settings.max_edge
-        )));
+/// Builds meshes of one scene, keeping the GPU blocker table between
+/// builds: a-posteriori refinement re-meshes with extra points, and the
+/// blockers do not change.
+pub struct MeshBuilder<'a> {
+    device: &'a Arc<Device>,
+    scene: &'a Scene,
+    settings: MeshSettings,
+    table: Option<BlockerTable>,
+}
+
+impl<'a> MeshBuilder<'a> {
+    pub fn new(device: &'a Arc<Device>, scene: &'a Scene, settings: MeshSettings) -> Result<Self> {
+        if !(settings.max_edge.is_finite() && settings.max_edge > 0.0) {
+            return Err(Error::Invalid(format!(
+                "--max-edge must be a positive length, got {}",
+                settings.max_edge
+            )));
+        }
+        Ok(MeshBuilder {
+            device,
+            scene,
+            settings,
+            table: None,
+        })
     }
-    let mut report = MeshReport::default();
-    let mesh = match settings.mesher {
-        Mesher::Uniform => {
-            let t = Instant::now();
-            let mesh = mesh::uniform(scene, settings.max_edge);
-            report.stages.push(("uniform", t.elapsed()));
-            mesh
-        }
-        Mesher::Discontinuity { refine } => {
-            let t = Instant::now();
-            let table = gpu_blockers(device, scene, settings.dm_res)?;
-            report.stages.push(("visibility (GPU)", t.elapsed()));
-            report.pairs = table.pairs;
-            report.tiles = table.tiles;
-            let options = DiscontinuityOptions {
-                max_edge: refine.then_some(settings.max_edge),
-                extra_points: extra_points.to_vec(),
-                ..Default::default()
-            };
-            let oracle = |e: usize, k: usize, t: usize| table.get(e, k, t);
-            let (mesh, stats) = discontinuity_mesh(scene, &oracle, &options)
-                .map_err(|e| Error::Invalid(format!("discontinuity meshing failed: {e}")))?;
-            report.stages.push(("projection", stats.projection_time));
-            report.stages.push(("arrangement", stats.arrangement_time));
-            report.stages.push(("CDT", stats.cdt_time));
-            report.discontinuity = Some(stats);
-            mesh
-        }
-    };
-    Ok((mesh, report))
+
+    pub fn settings(&self) -> &MeshSettings {
+        &self.settings
+    }
+
+    /// A mesh with `extra_points` inserted (discontinuity mesher only).
+    pub fn build(&mut self, extra_points: &[(u32, Vec3)]) -> Result<(Mesh, MeshReport)> {
+        let (scene, settings) = (self.scene, self.settings);
+        let mut report = MeshReport::default();
+        let mesh = match settings.mesher {
+            Mesher::Uniform => {
+                let t = Instant::now();
+                let mesh = mesh::uniform(scene, settings.max_edge);
+                report.stages.push(("uniform", t.elapsed()));
+                mesh
+            }
+            Mesher::Discontinuity { refine } => {
+                if self.table.is_none() {
+                    let t = Instant::now();
+                    self.table = Some(gpu_blockers(self.device, scene, settings.dm_res)?);
+                    report.stages.push(("visibility (GPU)", t.elapsed()));
+                }
+                let table = self
+                    .table
+                    .as_ref()
+                    .ok_or_else(|| Error::Invalid("internal: blocker table missing".into()))?;
+                report.pairs = table.pairs;
+                report.tiles = table.tiles;
+                let options = DiscontinuityOptions {
+                    max_edge: refine.then_some(settings.max_edge),
+                    extra_points: extra_points.to_vec(),
+                    ..Default::default()
+                };
+                let oracle = |e: usize, k: usize, t: usize| table.get(e, k, t);
+                let (mesh, stats) = discontinuity_mesh(scene, &oracle, &options)
+                    .map_err(|e| Error::Invalid(format!("discontinuity meshing failed: {e}")))?;
+                report.stages.push(("projection", stats.projection_time));
+                report.stages.push(("arrangement", stats.arrangement_time));
+                report.stages.push(("CDT", stats.cdt_time));
+                report.discontinuity = Some(stats);
+                mesh
+            }
+        };
+        Ok((mesh, report))
+    }
 }
 
 /// Where the solution varies too much inside an element: the centroid of
