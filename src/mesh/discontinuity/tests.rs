@@ -394,3 +394,39 @@ fn report_builtin_stats() {
         );
     }
 }
+
+/// The GPU oracle's blockers for patch 972 of `vise` at `--dm-res 256`: two
+/// shadow segments on one line with a gap of 1.9e-4 of the patch size
+/// between them (more than the snap tolerance), next to a vertex at 2
+/// degrees from that line, so the CDT's triangle on the gap had its apex
+/// within 7e-6 of the opposite edge (a T-junction) and no flip could help.
+const VISE_256_PATCH_972: &str = "
+    1014 0 972 924 925 926 927 928 929 930 931
+    1014 1 972 923 924 925 926 927 928 929 930
+";
+
+#[test]
+fn gpu_blocker_subset_leaves_no_t_junction_at_a_collinear_gap() {
+    let scene = builtin("vise");
+    let table: std::collections::HashMap<(usize, usize, usize), Vec<usize>> = VISE_256_PATCH_972
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let n: Vec<usize> = l
+                .split_whitespace()
+                .map(|x| x.parse().expect("number"))
+                .collect();
+            ((n[0], n[1], n[2]), n[3..].to_vec())
+        })
+        .collect();
+    let oracle = |e: usize, v: usize, t: usize| table.get(&(e, v, t)).cloned();
+    for max_edge in [None, Some(crate::mesh::default_max_edge(&scene))] {
+        let options = DiscontinuityOptions {
+            max_edge,
+            ..Default::default()
+        };
+        let (mesh, stats) = discontinuity_mesh(&scene, &oracle, &options).expect("meshes");
+        check(&scene, &mesh);
+        assert!(stats.sliver_flips > 0, "{stats:?}");
+    }
+}

@@ -215,7 +215,12 @@ pub(crate) fn refine(
 /// opposite edge (which would read as a T-junction): the edge is flipped
 /// to the apex, so the path through the apex replaces it (it is within
 /// `tol` of the old edge, so a constraint keeps its course). Boundary edges
-/// are never flipped. Returns the number of flips.
+/// are never flipped. When the triangle across is as flat (so no flip
+/// improves them), the apex's edge to the nearer end of the opposite edge,
+/// if at most a few snap tolerances long, is collapsed instead: an interior
+/// vertex moves onto its neighbour (two nearly collinear constraints with a
+/// tiny gap between them become one). Vertices left unused are dropped.
+/// Returns the number of flips and collapses.
 pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
     let mut r = Refiner {
         limit: f64::INFINITY,
@@ -288,6 +293,20 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             };
             let before = quality(v).min(quality(nv));
             if !(ccw(n1) && ccw(n2)) || px == pw || quality(n1).min(quality(n2)) <= before {
+                // No flip helps (the triangle across is as flat): a short
+                // edge from the apex to the nearer end of `a`-`b`, nearly
+                // along it, is collapsed instead (an interior vertex moves
+                // onto its neighbour by at most a few snap tolerances).
+                let near = if pw.distance(pa) <= pw.distance(pb) {
+                    a
+                } else {
+                    b
+                };
+                if let Some(changed) = r.collapse_short_edge(w, near, COLLAPSE_SNAPS * snap, tol) {
+                    flips += 1;
+                    stack.extend(changed);
+                    break;
+                }
                 continue;
             }
             r.unlink(t);
@@ -302,11 +321,43 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             break;
         }
     }
-    tri.points = r.points;
-    tri.tags = r.tags;
-    tri.triangles = r.tris;
+    let tris: Vec<[u32; 3]> = r
+        .tris
+        .iter()
+        .zip(&r.alive)
+        .filter(|(_, &a)| a)
+        .map(|(t, _)| *t)
+        .collect();
+    // Drop the vertices collapses left unused, keeping the others' order.
+    let mut used = vec![false; r.points.len()];
+    for t in &tris {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    if used.iter().all(|&u| u) {
+        tri.points = r.points;
+        tri.tags = r.tags;
+        tri.triangles = tris;
+    } else {
+        let mut new_id = vec![u32::MAX; used.len()];
+        tri.points = Vec::with_capacity(used.len());
+        tri.tags = Vec::with_capacity(used.len());
+        for (v, &u) in used.iter().enumerate() {
+            if u {
+                new_id[v] = tri.points.len() as u32;
+                tri.points.push(r.points[v]);
+                tri.tags.push(r.tags[v]);
+            }
+        }
+        tri.triangles = tris.iter().map(|t| t.map(|v| new_id[v as usize])).collect();
+    }
     flips
 }
+
+/// How far (in snap tolerances) [`fix_slivers`] may move a vertex when it
+/// collapses a short edge.
+const COLLAPSE_SNAPS: f64 = 4.0;
 
 struct Refiner<'a> {
     limit: f64,
@@ -374,6 +425,128 @@ impl Refiner<'_> {
             }
         }
         best
+    }
+
+    /// Collapses edge `p`-`q` (at most `max_len` long): one of its ends, an
+    /// interior vertex (no boundary tag), moves onto the other; the two
+    /// triangles on the edge vanish and the mover's other triangles take the
+    /// other end instead. Only when the result is a valid triangulation of
+    /// the same region (the link condition holds, every changed triangle
+    /// stays counter-clockwise) and no changed triangle gets a vertex within
+    /// `tol` of its opposite edge unless it already had one. Returns the
+    /// changed triangles, or `None` when refused.
+    fn collapse_short_edge(&mut self, p: u32, q: u32, max_len: f64, tol: f64) -> Option<Vec<u32>> {
+        let len = self.points[p as usize].distance(self.points[q as usize]);
+        if !(len <= max_len) || p == q {
+            return None;
+        }
+        let slot = *self.edges.get(&Self::key(p, q))?;
+        if slot.contains(&u32::MAX) {
+            return None;
+        }
+        let third = |t: u32| {
+            self.tris[t as usize]
+                .iter()
+                .copied()
+                .find(|&x| x != p && x != q)
+        };
+        let apexes = [third(slot[0])?, third(slot[1])?];
+        let star = |v: u32| self.star(v, slot[0]);
+        let ring = |tris: &[u32], v: u32| -> Vec<u32> {
+            let mut out: Vec<u32> = tris
+                .iter()
+                .flat_map(|&t| self.tris[t as usize])
+                .filter(|&x| x != v)
+                .collect();
+            out.sort_unstable();
+            out.dedup();
+            out
+        };
+        let quality = |t: [u32; 3]| {
+            let [a, b, c] = t.map(|i| self.points[i as usize]);
+            let twice = (b - a).perp_dot(c - a);
+            let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
+            if longest > 0.0 {
+                twice / longest
+            } else {
+                0.0
+            }
+        };
+        for (mover, keep) in [(p, q), (q, p)] {
+            if self.tags[mover as usize].on[0].is_some() {
+                continue;
+            }
+            let (Some(star_m), Some(star_k)) = (star(mover), star(keep)) else {
+                continue;
+            };
+            let ring_m = ring(&star_m, mover);
+            let ring_k = ring(&star_k, keep);
+            let mut common: Vec<u32> = ring_m
+                .iter()
+                .copied()
+                .filter(|x| ring_k.binary_search(x).is_ok())
+                .collect();
+            common.sort_unstable();
+            let mut want = apexes.to_vec();
+            want.sort_unstable();
+            want.dedup();
+            if common != want || want.len() != 2 {
+                continue;
+            }
+            let changed: Vec<(u32, [u32; 3])> = star_m
+                .iter()
+                .filter(|t| !slot.contains(t))
+                .map(|&t| {
+                    let old = self.tris[t as usize];
+                    (t, old.map(|x| if x == mover { keep } else { x }))
+                })
+                .collect();
+            let ok = changed.iter().all(|&(t, new)| {
+                let qn = quality(new);
+                qn > 0.0 && (qn >= tol || qn >= quality(self.tris[t as usize]))
+            });
+            if !ok {
+                continue;
+            }
+            for t in slot {
+                self.unlink(t);
+                self.alive[t as usize] = false;
+            }
+            for &(t, new) in &changed {
+                self.unlink(t);
+                self.tris[t as usize] = new;
+                self.link(t);
+            }
+            return Some(changed.into_iter().map(|(t, _)| t).collect());
+        }
+        None
+    }
+
+    /// The triangles around vertex `v`, walked across its edges from
+    /// triangle `start` (which has it) both ways. `None` when the walk gets
+    /// lost (a non-manifold neighbourhood).
+    fn star(&self, v: u32, start: u32) -> Option<Vec<u32>> {
+        let mut out = vec![start];
+        for step in [1, 2] {
+            let mut cur = start;
+            loop {
+                let tv = self.tris[cur as usize];
+                let i = tv.iter().position(|&x| x == v)?;
+                let e = Self::key(v, tv[(i + step) % 3]);
+                match self.neighbour(cur, e) {
+                    None => break,
+                    Some(nb) if nb == start => return Some(out),
+                    Some(nb) => {
+                        if out.len() > self.tris.len() || out.contains(&nb) {
+                            return None;
+                        }
+                        out.push(nb);
+                        cur = nb;
+                    }
+                }
+            }
+        }
+        Some(out)
     }
 
     fn neighbour(&self, t: u32, e: [u32; 2]) -> Option<u32> {
