@@ -238,3 +238,49 @@ pub fn set_viewport(device: &Device, cmd: vk::CommandBuffer, (x, y, w, h): (u32,
         );
     }
 }
+
+/// The barriers between an item-buffer render and the compute pass that
+/// scans it into a cleared atomic buffer (the hemicube's form-factor
+/// reduction, the visibility pass's flags): clear of `atomics` -> atomic
+/// read/write, and item-buffer colour write -> storage-image read (the
+/// image moves to GENERAL).
+pub fn item_buffer_to_scan(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    item: vk::Image,
+    atomics: vk::Buffer,
+) {
+    barriers(
+        device,
+        cmd,
+        // Clear of the atomic buffer -> the scan's atomics.
+        &[buffer_barrier(
+            atomics,
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            ),
+        )],
+        // Item-buffer writes -> the scan's reads.
+        &[image_barrier(
+            item,
+            vk::ImageAspectFlags::COLOR,
+            (
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                vk::ImageLayout::GENERAL,
+            ),
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER,
+                vk::AccessFlags2::SHADER_STORAGE_READ,
+            ),
+        )],
+    );
+}

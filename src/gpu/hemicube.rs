@@ -11,7 +11,8 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::commands::{
-    barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
+    barriers, begin_rendering, buffer_barrier, image_barrier, item_buffer_to_scan, set_viewport,
+    Commands,
 };
 use super::context::Device;
 use super::memory::{Buffer, Image};
@@ -409,39 +410,7 @@ impl HemicubeEngine {
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "hemicube render");
         }
-        barriers(
-            d,
-            cmd,
-            // Clear of ff -> reduction atomics.
-            &[buffer_barrier(
-                self.ff.raw(),
-                (
-                    vk::PipelineStageFlags2::ALL_TRANSFER,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-            )],
-            // Item-buffer write -> reduction read.
-            &[image_barrier(
-                self.item.raw(),
-                vk::ImageAspectFlags::COLOR,
-                (
-                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    vk::ImageLayout::GENERAL,
-                ),
-                (
-                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ,
-                ),
-            )],
-        );
+        item_buffer_to_scan(d, cmd, self.item.raw(), self.ff.raw());
         // SAFETY: as above.
         unsafe {
             raw.cmd_bind_pipeline(
