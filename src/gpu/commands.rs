@@ -284,3 +284,86 @@ pub fn item_buffer_to_scan(
         )],
     );
 }
+
+/// Opens an item-buffer frame that may follow an earlier one in the same
+/// queue: the earlier scan and readback are done with the resources (WAR),
+/// the item buffer and depth(-stencil) become attachments again (their old
+/// contents discarded), and the atomic buffer is cleared to zero.
+pub fn reset_item_frame(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    item: vk::Image,
+    depth: vk::Image,
+    stencil: bool,
+    atomics: vk::Buffer,
+) {
+    let (aspect, layout) = if stencil {
+        (
+            vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+            vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        )
+    } else {
+        (
+            vk::ImageAspectFlags::DEPTH,
+            vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
+        )
+    };
+    barriers(
+        device,
+        cmd,
+        // Earlier scan/readback reads of the atomics -> this clear (WAR).
+        // ALL_TRANSFER: layers differ on whether a fill is CLEAR or COPY.
+        &[buffer_barrier(
+            atomics,
+            (
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::empty(),
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_TRANSFER,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+        )],
+        &[
+            // Earlier scan read of the item buffer -> this frame's writes.
+            image_barrier(
+                item,
+                vk::ImageAspectFlags::COLOR,
+                (
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                ),
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::empty(),
+                ),
+                (
+                    vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+            ),
+            // Earlier depth/stencil writes -> this frame's clear and tests.
+            image_barrier(
+                depth,
+                aspect,
+                (vk::ImageLayout::UNDEFINED, layout),
+                (
+                    vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                ),
+                (
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
+                ),
+            ),
+        ],
+    );
+    // SAFETY: cmd is recording; the barrier above orders the clear.
+    unsafe {
+        device
+            .raw
+            .cmd_fill_buffer(cmd, atomics, 0, vk::WHOLE_SIZE, 0)
+    };
+}

@@ -11,7 +11,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::commands::{
-    barriers, begin_rendering, buffer_barrier, image_barrier, item_buffer_to_scan, set_viewport,
+    barriers, begin_rendering, buffer_barrier, item_buffer_to_scan, reset_item_frame, set_viewport,
     Commands,
 };
 use super::context::Device;
@@ -309,65 +309,17 @@ impl HemicubeEngine {
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
         }
-        barriers(
+        reset_item_frame(
             d,
             cmd,
-            // Previous submission's shooting/readback read of ff -> this clear.
-            // (ALL_TRANSFER: layers differ on whether a fill is CLEAR or COPY.)
-            &[buffer_barrier(
-                self.ff.raw(),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::empty(),
-                ),
-                (
-                    vk::PipelineStageFlags2::ALL_TRANSFER,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-            )],
-            &[
-                // Previous reduction read of the item buffer -> this render's write.
-                image_barrier(
-                    self.item.raw(),
-                    vk::ImageAspectFlags::COLOR,
-                    (
-                        vk::ImageLayout::UNDEFINED,
-                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::empty(),
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                    ),
-                ),
-                // Previous render's depth writes -> this render's clear and test.
-                image_barrier(
-                    self.depth.raw(),
-                    vk::ImageAspectFlags::DEPTH,
-                    (
-                        vk::ImageLayout::UNDEFINED,
-                        vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
-                            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                ),
-            ],
+            self.item.raw(),
+            self.depth.raw(),
+            false,
+            self.ff.raw(),
         );
         let (w, h) = self.atlas;
         // SAFETY: cmd is recording; every handle is owned by self and outlives it.
         unsafe {
-            raw.cmd_fill_buffer(cmd, self.ff.raw(), 0, vk::WHOLE_SIZE, 0);
             begin_rendering(
                 d,
                 cmd,

@@ -14,7 +14,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 
 use super::commands::{
-    barriers, begin_rendering, buffer_barrier, image_barrier, item_buffer_to_scan, set_viewport,
+    barriers, begin_rendering, buffer_barrier, item_buffer_to_scan, reset_item_frame, set_viewport,
     Commands,
 };
 use super::context::Device;
@@ -251,64 +251,19 @@ impl VisibilityPass {
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
         }
-        let depth_aspect = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
-        barriers(
+        reset_item_frame(
             &d,
             cmd,
-            // Previous batch's flag readback copy -> this batch's clear (WAR).
-            &[buffer_barrier(
-                self.flags.raw(),
-                (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
-                (
-                    vk::PipelineStageFlags2::ALL_TRANSFER,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-            )],
-            &[
-                // Previous batch's flag pass read -> this batch's item writes.
-                image_barrier(
-                    self.item.raw(),
-                    vk::ImageAspectFlags::COLOR,
-                    (
-                        vk::ImageLayout::UNDEFINED,
-                        vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::empty(),
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                    ),
-                ),
-                // Previous batch's depth/stencil writes -> this batch's clear.
-                image_barrier(
-                    self.depth.raw(),
-                    depth_aspect,
-                    (
-                        vk::ImageLayout::UNDEFINED,
-                        vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                            | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                        vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
-                            | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-                    ),
-                ),
-            ],
+            self.item.raw(),
+            self.depth.raw(),
+            true,
+            self.flags.raw(),
         );
         let side = self.tiles_per_side * self.tile_res;
         let total_vertices =
             (self.vertices.size() / std::mem::size_of::<ItemVertex>() as u64) as u32;
         // SAFETY: cmd is recording; every handle is owned by self.
         unsafe {
-            raw.cmd_fill_buffer(cmd, self.flags.raw(), 0, vk::WHOLE_SIZE, 0);
             begin_rendering(
                 &d,
                 cmd,
