@@ -40,13 +40,7 @@ pub(crate) fn read(file: &Path, text: &str, warnings: &mut Vec<String>) -> Resul
     // and tobj never sees a statement it might reject.
     let mut blocks: Vec<Block> = Vec::new();
     let mut clean = String::with_capacity(text.len());
-    for (i, raw) in super::objscan::split_lines(text).enumerate() {
-        let line_no = i + 1;
-        let raw = if i == 0 {
-            raw.trim_start_matches('\u{feff}')
-        } else {
-            raw
-        };
+    for (line_no, raw) in super::objscan::numbered_lines(text) {
         let line = raw.trim();
         let mut words = line.split_whitespace();
         let keyword = words.next().unwrap_or("");

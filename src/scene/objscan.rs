@@ -50,13 +50,7 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
     let mut out = ObjScan::default();
     let mut name = String::new();
     let mut usemtl: Option<usize> = None;
-    for (i, raw) in split_lines(text).enumerate() {
-        let line_no = i + 1;
-        let raw = if i == 0 {
-            raw.trim_start_matches('\u{feff}')
-        } else {
-            raw
-        };
+    for (line_no, raw) in numbered_lines(text) {
         let line = raw.trim();
         let err = |what: String, hint: &str| Error::scene(file, line_no, what, Some(hint));
         if let Some(comment) = line.strip_prefix('#') {
@@ -169,6 +163,14 @@ pub(crate) const MAX_FACE_VERTICES: usize = 256;
 
 /// Splits text into lines ended by `\n`, `\r\n` or a lone `\r` (old Mac
 /// files), so that line numbers match what editors show.
+/// The lines of `text` with their 1-based numbers; a UTF-8 byte-order mark
+/// at the very start is not part of the first line.
+pub(crate) fn numbered_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
+    split_lines(text.strip_prefix('\u{feff}').unwrap_or(text))
+        .enumerate()
+        .map(|(i, line)| (i + 1, line))
+}
+
 pub(crate) fn split_lines(text: &str) -> impl Iterator<Item = &str> {
     let mut rest = Some(text);
     std::iter::from_fn(move || {
