@@ -143,20 +143,7 @@ pub(crate) fn refine(
     if !(max_len > 0.0) {
         return false;
     }
-    let mut r = Refiner {
-        limit: max_len * (1.0 + 1e-9),
-        poly,
-        snap,
-        points: std::mem::take(&mut tri.points),
-        tags: std::mem::take(&mut tri.tags),
-        tris: std::mem::take(&mut tri.triangles),
-        alive: Vec::new(),
-        edges: HashMap::new(),
-    };
-    r.alive = vec![true; r.tris.len()];
-    for t in 0..r.tris.len() {
-        r.link(t as u32);
-    }
+    let mut r = Refiner::take(tri, poly, snap, max_len * (1.0 + 1e-9));
     let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
     let mut capped = false;
     while let Some(t) = stack.pop() {
@@ -222,20 +209,7 @@ pub(crate) fn refine(
 /// tiny gap between them become one). Vertices left unused are dropped.
 /// Returns the number of flips and collapses.
 pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
-    let mut r = Refiner {
-        limit: f64::INFINITY,
-        poly,
-        snap,
-        points: std::mem::take(&mut tri.points),
-        tags: std::mem::take(&mut tri.tags),
-        tris: std::mem::take(&mut tri.triangles),
-        alive: Vec::new(),
-        edges: HashMap::new(),
-    };
-    r.alive = vec![true; r.tris.len()];
-    for t in 0..r.tris.len() {
-        r.link(t as u32);
-    }
+    let mut r = Refiner::take(tri, poly, snap, f64::INFINITY);
     let mut flips = 0;
     let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
     let budget = 4 * r.tris.len() + 16;
@@ -371,7 +345,27 @@ struct Refiner<'a> {
     edges: HashMap<[u32; 2], [u32; 2]>,
 }
 
-impl Refiner<'_> {
+impl<'a> Refiner<'a> {
+    /// Takes `tri`'s points and triangles (hand them back when done) and
+    /// links every triangle to its edges.
+    fn take(tri: &mut Triangulated, poly: &'a [DVec2], snap: f64, limit: f64) -> Self {
+        let tris = std::mem::take(&mut tri.triangles);
+        let mut r = Refiner {
+            limit,
+            poly,
+            snap,
+            points: std::mem::take(&mut tri.points),
+            tags: std::mem::take(&mut tri.tags),
+            alive: vec![true; tris.len()],
+            tris,
+            edges: HashMap::new(),
+        };
+        for t in 0..r.tris.len() {
+            r.link(t as u32);
+        }
+        r
+    }
+
     fn alive_count(&self) -> usize {
         self.alive.iter().filter(|&&a| a).count()
     }
