@@ -257,7 +257,11 @@ proptest! {
     // PROPTEST_RNG_SEED=<n> or a larger PROPTEST_CASES.
     #![proptest_config(ProptestConfig {
         cases: 200,
-        rng_seed: proptest::test_runner::RngSeed::Fixed(0x5eed_0001),
+        rng_seed: if std::env::var_os("PROPTEST_RNG_SEED").is_some() {
+            ProptestConfig::default().rng_seed
+        } else {
+            proptest::test_runner::RngSeed::Fixed(0x5eed_0001)
+        },
         ..ProptestConfig::default()
     })]
 
@@ -383,7 +387,7 @@ fn refined_overlapping_duplicates_can_leave_a_sliver() {
 /// coincident shadow lines, and the floor keeps a T-junction. Not fixed yet.
 #[test]
 #[ignore]
-fn contact_blocker_can_leave_a_t_junction() {
+fn low_parallel_blocker_can_leave_a_t_junction() {
     let b = [
         [0.29215026, 0.06504255, 0.0],
         [0.79215026, 0.06504255, 0.0],
