@@ -7,15 +7,17 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::error::{Error, Result};
+use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::{self, Mesh};
-use crate::meshing::{check_mesh, gradient_points, MeshBuilder, MeshReport, MeshSettings, Mesher};
+use crate::meshing::{check_mesh, MeshBuilder, MeshReport, MeshSettings, Mesher};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
+use crate::refine::{estimated_error, interpolation_gaps, refinement_points, RefineSettings};
 use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
-use crate::solve::{solve, Progress, Solution, SolveSettings};
+use crate::solve::{solve, FormFactorMethod, Progress, Solution, SolveSettings};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -39,11 +41,13 @@ pub struct RenderJob {
     /// Show unfinished solutions (max shots reached, interrupted) with the
     /// ambient term added to the image.
     pub ambient: bool,
-    /// A-posteriori refinement passes (discontinuity mesher only): re-mesh
-    /// where corner radiosities differ by more than `gradient` x the mean,
-    /// and solve again.
+    /// A-posteriori refinement passes (discontinuity mesher only): split
+    /// the elements whose interpolation error (see [`crate::refine`]) is
+    /// over `tolerance` x the mean radiosity, worst first and within
+    /// `max_elements`, and solve again.
     pub adaptive: usize,
-    pub gradient: f32,
+    pub tolerance: f32,
+    pub max_elements: Option<usize>,
     pub solve: SolveSettings,
     /// Camera fields to override on the scene's own (or automatic) camera.
     pub camera: CameraOverride,
@@ -66,7 +70,8 @@ impl RenderJob {
             wireframe: false,
             ambient: true,
             adaptive: 0,
-            gradient: 0.25,
+            tolerance: 0.02,
+            max_elements: None,
             solve: SolveSettings::default(),
             camera: CameraOverride::default(),
             size: (800, 800),
@@ -106,6 +111,10 @@ pub struct RenderReport {
     pub mesh_report: MeshReport,
     /// Element counts of every mesh solved (more than one with --adaptive).
     pub adaptive_elements: Vec<usize>,
+    /// The estimated relative RMS interpolation error of every mesh solved
+    /// with --adaptive (all but the last drive a refinement pass; the last
+    /// is measured after it).
+    pub adaptive_errors: Vec<f64>,
     pub solution: Solution,
     pub image: HdrImage,
     /// Exposure used for the PNG/PLY colours (given or automatic).
@@ -292,26 +301,43 @@ pub fn run_render(
     let mut solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
     let mut adaptive_elements = vec![mesh.elements.len()];
+    let mut adaptive_errors = Vec::new();
     let mut extra_points = Vec::new();
-    for _ in 0..job.adaptive {
-        if solution.interrupted {
+    let refine = RefineSettings {
+        tolerance: job.tolerance,
+        max_elements: job.max_elements,
+        min_edge: max_edge / 64.0,
+        rays: GatherRays {
+            emitters: match job.solve.method {
+                FormFactorMethod::RayTrace { rays } => rays.max(16),
+                _ => 64,
+            },
+            reflectors: 1,
+        },
+    };
+    for pass in 0..=job.adaptive {
+        if job.adaptive == 0 || solution.interrupted {
             break;
         }
         let t = Instant::now();
         let b = crate::render::vertex_radiosity(&mesh, &solution);
-        let points = gradient_points(&scene, &mesh, &b, job.gradient, max_edge / 64.0);
-        if points.is_empty() {
+        let gaps = interpolation_gaps(&scene, &mesh, &solution.radiosity, &b, refine.rays);
+        adaptive_errors.push(estimated_error(&scene, &mesh, &b, &gaps));
+        let points = refinement_points(&scene, &mesh, &b, &gaps, &refine);
+        add_wall(&mut wall, "adaptive estimate", t.elapsed().as_secs_f64());
+        if pass == job.adaptive || points.is_empty() {
             break;
         }
+        let t = Instant::now();
         extra_points.extend(points);
         let (refined, report) = builder.build(&extra_points)?;
         if job.check_mesh {
             check_mesh(&refined, &scene, job.mesher)?;
         }
-        wall.push(("adaptive mesh", t.elapsed().as_secs_f64()));
+        add_wall(&mut wall, "adaptive mesh", t.elapsed().as_secs_f64());
         let t = Instant::now();
         solution = solve(&device, &scene, &refined, &job.solve, &mut on_progress)?;
-        wall.push(("adaptive solve", t.elapsed().as_secs_f64()));
+        add_wall(&mut wall, "adaptive solve", t.elapsed().as_secs_f64());
         adaptive_elements.push(refined.elements.len());
         (mesh, mesh_report) = (refined, report);
     }
@@ -375,6 +401,7 @@ pub fn run_render(
         max_edge,
         mesh_report,
         adaptive_elements,
+        adaptive_errors,
         solution,
         image,
         exposure,
@@ -385,4 +412,12 @@ pub fn run_render(
         wall,
         gpu_times,
     })
+}
+
+/// Adds `seconds` to the stage `name`, summing the stages of repeated passes.
+fn add_wall(wall: &mut Vec<(&'static str, f64)>, name: &'static str, seconds: f64) {
+    match wall.iter_mut().find(|(n, _)| *n == name) {
+        Some((_, total)) => *total += seconds,
+        None => wall.push((name, seconds)),
+    }
 }

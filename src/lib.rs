@@ -14,6 +14,7 @@ pub mod mesh;
 pub mod meshing;
 pub mod output;
 pub mod projection;
+pub mod refine;
 pub mod render;
 pub mod scene;
 pub mod solve;

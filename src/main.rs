@@ -161,14 +161,25 @@ struct RenderArgs {
     /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
     #[arg(long)]
     exposure: Option<f32>,
-    /// A-posteriori refinement passes (with --mesh discontinuity): re-mesh
-    /// where the radiosity varies too much across an element, solve again.
+    /// A-posteriori refinement passes (with --mesh discontinuity): split
+    /// the elements where the shaded image is furthest from the radiosity
+    /// gathered at their centroid, solve again. Each pass at most doubles
+    /// the mesh.
     #[arg(long, default_value_t = 0, value_name = "PASSES")]
     adaptive: usize,
-    /// Refine elements whose corner radiosities differ by more than this
-    /// fraction of the mean radiosity (with --adaptive).
-    #[arg(long, default_value_t = 0.25, value_name = "FRACTION")]
-    gradient: f32,
+    /// With --adaptive: split elements whose centroid error exceeds this
+    /// fraction of the mean radiosity of the lit surfaces.
+    #[arg(
+        long,
+        default_value_t = 0.02,
+        value_name = "FRACTION",
+        alias = "gradient"
+    )]
+    tolerance: f32,
+    /// With --adaptive: stop refining before the mesh passes this many
+    /// elements (the worst elements are split first).
+    #[arg(long, value_name = "N")]
+    max_elements: Option<usize>,
     /// Show an unfinished solution (max shots reached, Ctrl-C) without the
     /// ambient term (Cohen et al. 1988) that stands in for unshot light.
     #[arg(long)]
@@ -335,7 +346,8 @@ fn render(args: RenderArgs) -> Result<()> {
     job.wireframe = args.wireframe;
     job.ambient = !args.no_ambient;
     job.adaptive = args.adaptive;
-    job.gradient = args.gradient;
+    job.tolerance = args.tolerance;
+    job.max_elements = args.max_elements;
     job.check_mesh = !args.no_check_mesh;
     job.solve = SolveSettings {
         method: args.mesh.method()?,
@@ -487,6 +499,15 @@ fn print_summary(r: &RenderReport, profile: bool) {
     if r.adaptive_elements.len() > 1 {
         let counts: Vec<String> = r.adaptive_elements.iter().map(|n| n.to_string()).collect();
         println!("  adaptive  elements per pass: {}", counts.join(" -> "));
+        let errors: Vec<String> = r
+            .adaptive_errors
+            .iter()
+            .map(|e| format!("{:.2}%", 100.0 * e))
+            .collect();
+        println!(
+            "            estimated interpolation error: {}",
+            errors.join(" -> ")
+        );
     }
     println!(
         "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
@@ -578,15 +599,16 @@ fn bench(args: BenchArgs) -> Result<()> {
         )?;
         device.check_validation()?;
         println!(
-            "vkrad bench --meshers on {}: {} points in {:.1} s (reference: uniform, {} elements)",
+            "vkrad bench --meshers on {}: {} points in {:.1} s\n  reference {} ({:.1} s)",
             device.info.name,
             report.points.len(),
             t.elapsed().as_secs_f64(),
-            report.reference_elements
+            report.reference,
+            report.reference_seconds
         );
         for p in &report.points {
             println!(
-                "  {:<28} {:<16} {:>7} elements  error {:.4}",
+                "  {:<36} {:<16} {:>7} elements  error {:.4}",
                 p.mesher, p.setting, p.elements, p.error
             );
         }

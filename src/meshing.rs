@@ -133,64 +133,6 @@ impl<'a> MeshBuilder<'a> {
     }
 }
 
-/// Where the solution varies too much inside an element: the centroid of
-/// every element whose corner radiosities differ by more than `threshold`
-/// times the mean radiosity of the non-emitting surfaces. Centroids lie
-/// strictly inside their element, so they never land on a constraint or a
-/// patch boundary; the CDT re-triangulates around them. Elements whose
-/// longest edge is under `min_edge` are left alone.
-pub fn gradient_points(
-    scene: &Scene,
-    mesh: &Mesh,
-    vertex_radiosity: &[[f32; 3]],
-    threshold: f32,
-    min_edge: f32,
-) -> Vec<(u32, Vec3)> {
-    let lum = |b: [f32; 3]| (b[0] + b[1] + b[2]) / 3.0;
-    let receiver = |e: &crate::mesh::Element| {
-        !scene
-            .material_of(&scene.patches[e.patch as usize])
-            .is_emitter()
-    };
-    let (mut sum, mut area) = (0.0f64, 0.0f64);
-    for e in mesh.elements.iter().filter(|e| receiver(e)) {
-        let mean = e
-            .corners()
-            .iter()
-            .map(|&v| lum(vertex_radiosity[v as usize]))
-            .sum::<f32>()
-            / e.corner_count as f32;
-        sum += mean as f64 * e.area as f64;
-        area += e.area as f64;
-    }
-    if area <= 0.0 || sum <= 0.0 {
-        return Vec::new();
-    }
-    let limit = threshold * (sum / area) as f32;
-    let mut points = Vec::new();
-    for e in mesh.elements.iter().filter(|e| receiver(e)) {
-        let c = e.corners();
-        let values: Vec<f32> = c
-            .iter()
-            .map(|&v| lum(vertex_radiosity[v as usize]))
-            .collect();
-        let spread = values.iter().copied().fold(f32::MIN, f32::max)
-            - values.iter().copied().fold(f32::MAX, f32::min);
-        if spread <= limit {
-            continue;
-        }
-        let longest = (0..c.len())
-            .map(|k| {
-                mesh.vertices[c[k] as usize].distance(mesh.vertices[c[(k + 1) % c.len()] as usize])
-            })
-            .fold(0.0f32, f32::max);
-        if longest >= 2.0 * min_edge {
-            points.push((e.patch, e.centre));
-        }
-    }
-    points
-}
-
 /// The mesh checks the design asks for: `sanity_check` for every mesh, plus
 /// no T-junctions across patches for discontinuity meshes.
 pub fn check_mesh(mesh: &Mesh, scene: &Scene, mesher: Mesher) -> Result<()> {

@@ -1,23 +1,31 @@
 //! Image error against element count for the meshers (uniform,
 //! discontinuity with uniform refinement on top, discontinuity with
-//! a-posteriori refinement): `vkrad bench --meshers`.
+//! a-posteriori refinement to the same element budgets as the uniform
+//! meshes): `vkrad bench --meshers`.
 //!
 //! Every run uses ray-traced form factors (exact at the vertices the image
 //! interpolates, so the comparison measures the mesh, not the form-factor
-//! method) and is compared with a fine uniform mesh's image from the same
-//! camera.
+//! method). The reference is not a mesh: every pixel's radiosity is
+//! gathered from a converged uniform solution ([`super::gathered`]), with
+//! the shadows resolved by rays. (A fine uniform mesh as the reference
+//! would smooth the shadow edges the way uniform meshes do, and flatter
+//! them.)
 
 use std::path::PathBuf;
 use std::sync::Arc;
+use std::time::Instant;
 
 use plotters::prelude::*;
 
-use super::relative_rms_error;
+use super::gathered::GatheredImage;
+use super::relative_rms_error_where;
 use crate::app::{run_render, RenderJob};
 use crate::error::{Error, Result};
+use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::gpu::Device;
-use crate::meshing::Mesher;
-use crate::solve::{FormFactorMethod, SolveSettings};
+use crate::meshing::{build_mesh, MeshSettings, Mesher};
+use crate::output::HdrImage;
+use crate::solve::{solve, FormFactorMethod, SolveSettings};
 
 /// One solved mesh.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -27,12 +35,16 @@ pub struct MesherPoint {
     pub setting: String,
     pub elements: usize,
     pub error: f64,
+    /// The refinement's own estimate of the error (a-posteriori runs).
+    pub estimated_error: Option<f64>,
     pub wall_seconds: f64,
 }
 
 pub struct MesherReport {
     pub points: Vec<MesherPoint>,
-    pub reference_elements: usize,
+    /// What the reference is, in words.
+    pub reference: String,
+    pub reference_seconds: f64,
     pub json: PathBuf,
     pub svg: Option<PathBuf>,
     pub png: Option<PathBuf>,
@@ -41,103 +53,173 @@ pub struct MesherReport {
 
 const RAYS: usize = 64;
 const IMAGE: (u32, u32) = (120, 80);
+/// Rays per emitting source element of the reference gather.
+const REFERENCE_EMITTER_RAYS: usize = 256;
+
+pub const UNIFORM: &str = "uniform";
+pub const DM_REFINED: &str = "discontinuity + uniform refinement";
+pub const DM_ADAPTIVE: &str = "discontinuity + a posteriori";
+
+fn solve_settings() -> SolveSettings {
+    SolveSettings {
+        method: FormFactorMethod::RayTrace { rays: RAYS },
+        converge: 1e-4,
+        ..Default::default()
+    }
+}
+
+/// The gathered reference image of `scene` and what it is.
+pub fn gathered_reference(
+    device: &Arc<Device>,
+    scene: &crate::scene::Scene,
+    quick: bool,
+) -> Result<(GatheredImage, String)> {
+    let divisor = if quick { 16.0 } else { 32.0 };
+    let max_edge = scene.extent() / divisor;
+    let (mesh, _) = build_mesh(
+        device,
+        scene,
+        &MeshSettings {
+            mesher: Mesher::Uniform,
+            max_edge,
+            dm_res: 128,
+        },
+    )?;
+    let solution = solve(
+        device,
+        scene,
+        &mesh,
+        &solve_settings(),
+        &mut |_: &crate::solve::Progress| true,
+    )?;
+    let rays = GatherRays {
+        emitters: REFERENCE_EMITTER_RAYS,
+        reflectors: 4,
+    };
+    let gatherer = Gatherer::new(scene, &mesh, &solution.radiosity, rays);
+    let camera = crate::render::default_camera(scene);
+    let image = super::gathered::gathered_image(scene, &gatherer, &camera, IMAGE, 0x5eed)?;
+    let what = format!(
+        "gathered per pixel (2x2 samples; compared where they all see one lit surface): {} rays per emitting element, {} per reflecting one, from a uniform solution of {} elements",
+        rays.emitters,
+        rays.reflectors,
+        mesh.elements.len()
+    );
+    Ok((image, what))
+}
 
 /// Runs the mesher sweep on `scene` and writes `meshers.{json,svg,png}`
 /// into `out_dir`.
 pub fn run_mesher_bench(
     device: &Arc<Device>,
-    scene: &str,
+    scene_arg: &str,
     quick: bool,
     out_dir: &std::path::Path,
     mut progress: impl FnMut(&str),
 ) -> Result<MesherReport> {
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
-    let extent = crate::scene::load_scene_arg(scene)?.extent();
+    let scene = crate::scene::load_scene_arg(scene_arg)?;
+    let extent = scene.extent();
+    progress(&format!("{scene_arg}: gathering the reference image"));
+    let t = Instant::now();
+    let (reference, reference_what) = gathered_reference(device, &scene, quick)?;
+    let reference_seconds = t.elapsed().as_secs_f64();
+    let reference_png = out_dir.join("meshers-reference.png");
+    let exposure = crate::output::tonemap::auto_exposure(&reference.image.pixels);
+    crate::output::image_io::save_image(&reference.image, &reference_png, Some(exposure))?;
+    progress(&format!(
+        "{scene_arg}: reference in {reference_seconds:.1} s ({reference_what})"
+    ));
+
     let tmp = out_dir.join(".meshers.hdr");
     let run = |mesher: Mesher,
                max_edge: f32,
-               adaptive: usize|
-     -> Result<(usize, f64, crate::output::HdrImage)> {
-        let mut job = RenderJob::new(scene);
+               budget: Option<usize>|
+     -> Result<(usize, f64, HdrImage, Option<f64>)> {
+        let mut job = RenderJob::new(scene_arg);
         job.output = Some(tmp.clone());
         job.size = IMAGE;
         job.mesher = mesher;
         job.max_edge = Some(max_edge);
-        job.adaptive = adaptive;
-        job.gradient = 0.1;
-        job.solve = SolveSettings {
-            method: FormFactorMethod::RayTrace { rays: RAYS },
-            converge: 1e-4,
-            ..Default::default()
-        };
-        let t = std::time::Instant::now();
+        if let Some(n) = budget {
+            // Worst elements first until the budget is spent.
+            job.adaptive = 12;
+            job.tolerance = 0.0;
+            job.max_elements = Some(n);
+        }
+        job.solve = solve_settings();
+        let t = Instant::now();
+        job.exposure = Some(exposure);
         let r = run_render(&job, Some(device.clone()), |_| true)?;
-        Ok((r.mesh.elements.len(), t.elapsed().as_secs_f64(), r.image))
+        Ok((
+            r.mesh.elements.len(),
+            t.elapsed().as_secs_f64(),
+            r.image,
+            r.adaptive_errors.last().copied(),
+        ))
     };
-    let fine = extent / if quick { 64.0 } else { 128.0 };
-    progress(&format!(
-        "{scene}: reference, uniform mesh at max edge {fine:.3}"
-    ));
-    let (reference_elements, _, reference) = run(Mesher::Uniform, fine, 0)?;
     let divisors: &[f32] = if quick {
-        &[4.0, 8.0, 16.0]
+        &[4.0, 8.0]
     } else {
-        &[4.0, 8.0, 16.0, 32.0]
+        &[4.0, 8.0, 16.0, 32.0, 64.0]
     };
     let mut points = Vec::new();
-    let mut push = |mesher: &str,
-                    setting: String,
-                    (elements, wall, image): (usize, f64, crate::output::HdrImage)|
-     -> Result<()> {
-        let error = relative_rms_error(&image, &reference)?;
-        progress(&format!(
-            "{scene}: {mesher} {setting}: {elements} elements, error {error:.3e}"
+    let mut push =
+        |mesher: &str,
+         setting: String,
+         (elements, wall, image, estimated_error): (usize, f64, HdrImage, Option<f64>)|
+         -> Result<usize> {
+            let error =
+                relative_rms_error_where(&image, &reference.image, Some(&reference.shading))?;
+            progress(&format!(
+            "{scene_arg}: {mesher} {setting}: {elements} elements, error {error:.3e} ({wall:.1} s)"
         ));
-        points.push(MesherPoint {
-            scene: scene.to_string(),
-            mesher: mesher.to_string(),
-            setting,
-            elements,
-            error,
-            wall_seconds: wall,
-        });
-        Ok(())
-    };
+            points.push(MesherPoint {
+                scene: scene_arg.to_string(),
+                mesher: mesher.to_string(),
+                setting,
+                elements,
+                error,
+                estimated_error,
+                wall_seconds: wall,
+            });
+            Ok(elements)
+        };
     for &d in divisors {
         let m = extent / d;
-        push(
-            "uniform",
+        let n = push(
+            UNIFORM,
             format!("max edge {m:.3}"),
-            run(Mesher::Uniform, m, 0)?,
+            run(Mesher::Uniform, m, None)?,
         )?;
         push(
-            "discontinuity + refinement",
+            DM_REFINED,
             format!("max edge {m:.3}"),
-            run(Mesher::Discontinuity { refine: true }, m, 0)?,
+            run(Mesher::Discontinuity { refine: true }, m, None)?,
         )?;
-    }
-    let passes = if quick { 3 } else { 5 };
-    for p in 0..=passes {
         push(
-            "discontinuity, a posteriori",
-            format!("{p} passes"),
-            run(Mesher::Discontinuity { refine: false }, extent / 4.0, p)?,
+            DM_ADAPTIVE,
+            format!("budget {n}"),
+            run(
+                Mesher::Discontinuity { refine: false },
+                extent / 4.0,
+                Some(n),
+            )?,
         )?;
     }
     std::fs::remove_file(&tmp).ok();
 
     let json = out_dir.join("meshers.json");
     let doc = serde_json::json!({
-        "scene": scene,
+        "scene": scene_arg,
         "method": format!("ray trace, {RAYS} rays per vertex, converge 1e-4"),
-        "reference_elements": reference_elements,
+        "reference": reference_what,
+        "reference_seconds": reference_seconds,
         "image": [IMAGE.0, IMAGE.1],
         "points": points,
     });
     crate::app::write_report(&json, &doc)?;
-    let title = format!(
-        "{scene}: image error vs elements (reference: uniform, {reference_elements} elements)"
-    );
+    let title = format!("{scene_arg}: image error vs elements (reference: per-pixel gather)");
     let (svg, png, png_skipped) = match super::chart::register_font() {
         // plotters needs a font for any text, SVG included.
         Err(why) => (None, None, Some(why)),
@@ -174,7 +256,8 @@ pub fn run_mesher_bench(
     };
     Ok(MesherReport {
         points,
-        reference_elements,
+        reference: reference_what,
+        reference_seconds,
         json,
         svg,
         png,
@@ -208,14 +291,15 @@ fn draw<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc("elements")
+        .x_label_formatter(&|x| format!("{x:.0}"))
         .y_desc("relative RMS image error")
         .label_style(("sans-serif", 13))
         .draw()
         .map_err(e)?;
     let styles = [
-        ("uniform", RGBColor(31, 119, 180)),
-        ("discontinuity + refinement", RGBColor(214, 39, 40)),
-        ("discontinuity, a posteriori", RGBColor(44, 160, 44)),
+        (UNIFORM, RGBColor(31, 119, 180)),
+        (DM_REFINED, RGBColor(214, 39, 40)),
+        (DM_ADAPTIVE, RGBColor(44, 160, 44)),
     ];
     for (name, colour) in styles {
         let mut series: Vec<(f64, f64)> = points

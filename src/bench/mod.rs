@@ -26,6 +26,7 @@
 //! Outputs in `OUT/`: `bench.json`, `bench.csv`, `bench.svg`, `bench.png`.
 
 pub mod chart;
+pub mod gathered;
 pub mod meshers;
 pub mod reference;
 pub mod scenes;
@@ -603,6 +604,16 @@ fn scene_reference(
 /// `sqrt(mean((L - L_ref)^2)) / mean(L_ref)` over the colour channels of
 /// the pixels where either image is not black.
 pub fn relative_rms_error(image: &HdrImage, reference: &HdrImage) -> Result<f64> {
+    relative_rms_error_where(image, reference, None)
+}
+
+/// [`relative_rms_error`] over the pixels where `mask` is true (all of
+/// them without a mask).
+pub fn relative_rms_error_where(
+    image: &HdrImage,
+    reference: &HdrImage,
+    mask: Option<&[bool]>,
+) -> Result<f64> {
     if image.width != reference.width || image.height != reference.height {
         return Err(Error::Invalid(format!(
             "error image is {}x{}, reference {}x{}",
@@ -610,8 +621,8 @@ pub fn relative_rms_error(image: &HdrImage, reference: &HdrImage) -> Result<f64>
         )));
     }
     let (mut sq, mut sum, mut n) = (0.0f64, 0.0f64, 0usize);
-    for (a, b) in image.pixels.iter().zip(&reference.pixels) {
-        if a.iter().chain(b).all(|&v| v == 0.0) {
+    for (k, (a, b)) in image.pixels.iter().zip(&reference.pixels).enumerate() {
+        if a.iter().chain(b).all(|&v| v == 0.0) || mask.is_some_and(|m| !m[k]) {
             continue;
         }
         for c in 0..3 {

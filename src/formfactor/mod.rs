@@ -3,5 +3,6 @@
 //! form factors (exact unoccluded, and ray-traced with occlusion).
 
 pub mod analytic;
+pub mod gather;
 pub mod hemicube;
 pub mod raytrace;

@@ -56,7 +56,7 @@ use std::time::Duration;
 use glam::{DVec3, Vec3};
 use obvhs::cwbvh::builder::build_cwbvh_from_tris;
 use obvhs::cwbvh::CwBvh;
-use obvhs::ray::Ray;
+use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
@@ -177,27 +177,50 @@ impl Occluders {
     }
 }
 
+impl Occluders {
+    /// The first patch that the ray `a + t d`, t > 0, meets: `(t, patch)`.
+    pub fn first_hit(&self, a: Vec3, d: Vec3) -> Option<(f32, u32)> {
+        let bvh = self.bvh.as_ref()?;
+        if !d.is_finite() || d.length_squared() == 0.0 {
+            return None;
+        }
+        let ray = Ray::new(a.to_array().into(), d.to_array().into(), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        let found = bvh.ray_traverse(ray, &mut hit, |ray, id| {
+            hit_distance(&self.tris[id], a, d, 0.0, ray.tmax).unwrap_or(f32::INFINITY)
+        });
+        found.then(|| (hit.t, self.tris[hit.primitive_id as usize].patch))
+    }
+}
+
 /// Moller-Trumbore, edges inclusive, `t` strictly inside (tmin, tmax).
 #[inline]
 fn hits(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+    hit_distance(tri, a, d, tmin, tmax).is_some()
+}
+
+/// The ray parameter `t` where `a + t d` meets the triangle (edges
+/// inclusive), if it lies strictly inside (tmin, tmax).
+#[inline]
+fn hit_distance(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
     let p = d.cross(tri.e2);
     let det = tri.e1.dot(p);
     if det == 0.0 || !det.is_finite() {
-        return false; // parallel to the triangle's plane
+        return None; // parallel to the triangle's plane
     }
     let inv = 1.0 / det;
     let s = a - tri.v0;
     let u = s.dot(p) * inv;
     if !(0.0..=1.0).contains(&u) {
-        return false;
+        return None;
     }
     let q = s.cross(tri.e1);
     let v = d.dot(q) * inv;
     if v < 0.0 || u + v > 1.0 {
-        return false;
+        return None;
     }
     let t = tri.e2.dot(q) * inv;
-    t > tmin && t < tmax
+    (t > tmin && t < tmax).then_some(t)
 }
 
 // ---------------------------------------------------------------------------
@@ -206,13 +229,13 @@ fn hits(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
 
 /// PCG32 (XSH RR), O'Neill 2014.
 #[derive(Debug, Clone)]
-struct Pcg32 {
+pub(crate) struct Pcg32 {
     state: u64,
     inc: u64,
 }
 
 impl Pcg32 {
-    fn new(seed: u64, stream: u64) -> Self {
+    pub(crate) fn new(seed: u64, stream: u64) -> Self {
         let mut r = Pcg32 {
             state: 0,
             inc: (stream << 1) | 1,
@@ -304,17 +327,17 @@ fn grid(n: usize) -> (usize, usize) {
 
 /// The source of one shot.
 #[derive(Debug, Clone)]
-struct Shooter {
+pub(crate) struct Shooter {
     sampler: Sampler,
     polygon: Vec<DVec3>,
     centre: Vec3,
     normal: Vec3,
     area: f32,
-    patch: u32,
+    pub(crate) patch: u32,
 }
 
 impl Shooter {
-    fn new(mesh: &Mesh, el: &Element) -> Self {
+    pub(crate) fn new(mesh: &Mesh, el: &Element) -> Self {
         let corners: Vec<Vec3> = el
             .corners()
             .iter()
@@ -530,53 +553,74 @@ impl<'a> RayTracedFormFactors<'a> {
         rays: usize,
         rng: &mut Pcg32,
     ) -> f32 {
-        // The shooter emits to its front only: nothing reaches a point
-        // behind (or in) its plane.
-        if (p - src.centre).dot(src.normal) <= 0.0 {
-            return 0.0;
-        }
-        // Nothing either if the whole shooter is behind p's tangent plane.
-        let s = &src.sampler;
-        if s.corners[..s.count].iter().all(|&c| (c - p).dot(n) <= 0.0) {
-            return 0.0;
-        }
-        let da = src.area / rays as f32;
-        let (rows, cols) = grid(rays);
-        let skip = [receiver_patch, src.patch];
-        // Sums of the eq. 2.11 terms over all samples and over the visible.
-        let (mut all, mut sum) = (0.0f32, 0.0f32);
-        for r in 0..rows {
-            for c in 0..cols {
-                let u = (r as f32 + rng.next_f32()) / rows as f32;
-                let w = (c as f32 + rng.next_f32()) / cols as f32;
-                let x = s.point(u, w);
-                let d = x - p;
-                let r2 = d.length_squared();
-                if r2.is_nan() || r2 <= 0.0 {
-                    continue;
-                }
-                let len = r2.sqrt();
-                let cos_v = n.dot(d) / len;
-                let cos_i = -src.normal.dot(d) / len;
-                if cos_v <= 0.0 || cos_i <= 0.0 {
-                    continue;
-                }
-                let term = cos_v * cos_i / (PI * r2 + da);
-                all += term;
-                if self.occluders.visible(p, x, skip) {
-                    sum += term;
-                }
+        point_form_factor(
+            &self.occluders,
+            self.estimator,
+            (p, n, receiver_patch),
+            src,
+            rays,
+            rng,
+        )
+    }
+}
+
+/// The form factor from a differential area at `p` (unit normal `n`, on
+/// patch `receiver_patch`) to `src`, with occlusion, by `rays` rays
+/// (eq. 2.11, or the exact value times the visible fraction).
+pub(crate) fn point_form_factor(
+    occluders: &Occluders,
+    estimator: Estimator,
+    (p, n, receiver_patch): (Vec3, Vec3, u32),
+    src: &Shooter,
+    rays: usize,
+    rng: &mut Pcg32,
+) -> f32 {
+    // The shooter emits to its front only: nothing reaches a point
+    // behind (or in) its plane.
+    if (p - src.centre).dot(src.normal) <= 0.0 {
+        return 0.0;
+    }
+    // Nothing either if the whole shooter is behind p's tangent plane.
+    let s = &src.sampler;
+    if s.corners[..s.count].iter().all(|&c| (c - p).dot(n) <= 0.0) {
+        return 0.0;
+    }
+    let da = src.area / rays as f32;
+    let (rows, cols) = grid(rays);
+    let skip = [receiver_patch, src.patch];
+    // Sums of the eq. 2.11 terms over all samples and over the visible.
+    let (mut all, mut sum) = (0.0f32, 0.0f32);
+    for r in 0..rows {
+        for c in 0..cols {
+            let u = (r as f32 + rng.next_f32()) / rows as f32;
+            let w = (c as f32 + rng.next_f32()) / cols as f32;
+            let x = s.point(u, w);
+            let d = x - p;
+            let r2 = d.length_squared();
+            if r2.is_nan() || r2 <= 0.0 {
+                continue;
+            }
+            let len = r2.sqrt();
+            let cos_v = n.dot(d) / len;
+            let cos_i = -src.normal.dot(d) / len;
+            if cos_v <= 0.0 || cos_i <= 0.0 {
+                continue;
+            }
+            let term = cos_v * cos_i / (PI * r2 + da);
+            all += term;
+            if occluders.visible(p, x, skip) {
+                sum += term;
             }
         }
-        match self.estimator {
-            Estimator::Wallace => sum * da,
-            Estimator::ExactTimesVisibility => {
-                if all.is_nan() || all <= 0.0 {
-                    return 0.0;
-                }
-                let exact = point_to_polygon(p.as_dvec3(), n.as_dvec3(), &src.polygon) as f32;
-                exact * (sum / all)
+    }
+    match estimator {
+        Estimator::Wallace => sum * da,
+        Estimator::ExactTimesVisibility => {
+            if all.is_nan() || all <= 0.0 {
+                return 0.0;
             }
+            let exact = point_to_polygon(p.as_dvec3(), n.as_dvec3(), &src.polygon) as f32;
+            exact * (sum / all)
         }
     }
 }

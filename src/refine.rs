@@ -1,0 +1,162 @@
+//! A-posteriori refinement: find the elements where the Gouraud image is
+//! wrong, and give the mesher points to split them.
+//!
+//! The image interpolates vertex radiosities linearly across each element,
+//! so its error inside an element is the gap between the true radiosity and
+//! that interpolation. We measure the gap where it is largest for a smooth
+//! field, at the centroid: the radiosity gathered there from the solved
+//! mesh ([`Gatherer`]) against the mean of the corners. This sees curvature
+//! in smooth regions as well as a shadow edge the mesh missed; a test on
+//! corner differences alone (a gradient) cannot tell a linear ramp, which
+//! Gouraud shading reproduces exactly, from a curve, which it does not.
+//!
+//! Elements are taken worst first, by `gap^2 x area` (their share of the
+//! image's squared error), above a tolerance and within an element budget.
+
+use glam::Vec3;
+
+use crate::formfactor::gather::{GatherRays, Gatherer};
+use crate::mesh::{Element, Mesh};
+use crate::scene::Scene;
+
+/// When to split.
+#[derive(Debug, Clone, Copy)]
+pub struct RefineSettings {
+    /// Split where the centroid gap exceeds this fraction of the mean
+    /// radiosity of the non-emitting surfaces.
+    pub tolerance: f32,
+    /// Stop before the mesh would pass this many elements.
+    pub max_elements: Option<usize>,
+    /// Leave elements whose longest edge is under twice this alone.
+    pub min_edge: f32,
+    pub rays: GatherRays,
+}
+
+/// The estimated interpolation error of every element, as a luminance gap
+/// at its centroid (0 for emitters, which show their own uniform emission
+/// plus reflection, and for elements with no area).
+pub fn interpolation_gaps(
+    scene: &Scene,
+    mesh: &Mesh,
+    element_radiosity: &[[f32; 3]],
+    vertex_radiosity: &[[f32; 3]],
+    rays: GatherRays,
+) -> Vec<f32> {
+    let gatherer = Gatherer::new(scene, mesh, element_radiosity, rays);
+    let probes: Vec<(Vec3, u32)> = mesh.elements.iter().map(|e| (e.centre, e.patch)).collect();
+    let gathered = gatherer.radiosity_at_points(&probes, 0x9e37_79b9);
+    mesh.elements
+        .iter()
+        .zip(gathered)
+        .map(|(e, at_centre)| {
+            if is_emitter(scene, e) || e.area <= 0.0 {
+                return 0.0;
+            }
+            (luminance(at_centre.to_array()) - corner_mean(e, vertex_radiosity)).abs()
+        })
+        .collect()
+}
+
+/// The centroids of the elements to split (worst first), as
+/// `(patch, point)`. Centroids lie strictly inside their element, so they
+/// never land on a constraint or a patch boundary. At most one point per
+/// two elements is returned, so a pass at most doubles the mesh.
+pub fn refinement_points(
+    scene: &Scene,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+    gaps: &[f32],
+    settings: &RefineSettings,
+) -> Vec<(u32, Vec3)> {
+    let Some(mean) = mean_receiver_radiosity(scene, mesh, vertex_radiosity) else {
+        return Vec::new();
+    };
+    let limit = settings.tolerance * mean;
+    let mut candidates: Vec<(f32, usize)> = mesh
+        .elements
+        .iter()
+        .enumerate()
+        .filter(|&(k, e)| {
+            gaps[k] > limit && longest_edge(mesh, k) >= 2.0 * settings.min_edge && e.area > 0.0
+        })
+        .map(|(k, e)| (gaps[k] * gaps[k] * e.area, k))
+        .collect();
+    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
+    // A centroid adds two triangles (one becomes three).
+    let mut room = mesh.elements.len() / 2;
+    if let Some(max) = settings.max_elements {
+        room = room.min(max.saturating_sub(mesh.elements.len()) / 2);
+    }
+    candidates
+        .into_iter()
+        .take(room)
+        .map(|(_, k)| (mesh.elements[k].patch, mesh.elements[k].centre))
+        .collect()
+}
+
+/// The image error the gaps predict: `sqrt(sum gap^2 A / sum A)` over the
+/// non-emitting elements, relative to their mean radiosity (0 when they
+/// receive nothing).
+pub fn estimated_error(
+    scene: &Scene,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+    gaps: &[f32],
+) -> f64 {
+    let Some(mean) = mean_receiver_radiosity(scene, mesh, vertex_radiosity) else {
+        return 0.0;
+    };
+    let (mut sq, mut area) = (0.0f64, 0.0f64);
+    for (k, e) in mesh.elements.iter().enumerate() {
+        if is_emitter(scene, e) {
+            continue;
+        }
+        sq += f64::from(gaps[k]).powi(2) * e.area as f64;
+        area += e.area as f64;
+    }
+    (sq / area).sqrt() / mean as f64
+}
+
+/// The area-weighted mean luminance of the non-emitting surfaces, from the
+/// corner values; `None` when they receive nothing.
+fn mean_receiver_radiosity(
+    scene: &Scene,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+) -> Option<f32> {
+    let (mut sum, mut area) = (0.0f64, 0.0f64);
+    for e in mesh.elements.iter().filter(|e| !is_emitter(scene, e)) {
+        sum += corner_mean(e, vertex_radiosity) as f64 * e.area as f64;
+        area += e.area as f64;
+    }
+    (area > 0.0 && sum > 0.0).then(|| (sum / area) as f32)
+}
+
+/// The Gouraud value at an element's centroid: the mean of its corners.
+fn corner_mean(e: &Element, vertex_radiosity: &[[f32; 3]]) -> f32 {
+    let corners = e.corners();
+    corners
+        .iter()
+        .map(|&v| luminance(vertex_radiosity[v as usize]))
+        .sum::<f32>()
+        / corners.len() as f32
+}
+
+fn is_emitter(scene: &Scene, e: &Element) -> bool {
+    scene
+        .material_of(&scene.patches[e.patch as usize])
+        .is_emitter()
+}
+
+fn longest_edge(mesh: &Mesh, element: usize) -> f32 {
+    let c = mesh.elements[element].corners();
+    (0..c.len())
+        .map(|k| {
+            mesh.vertices[c[k] as usize].distance(mesh.vertices[c[(k + 1) % c.len()] as usize])
+        })
+        .fold(0.0, f32::max)
+}
+
+fn luminance(b: [f32; 3]) -> f32 {
+    (b[0] + b[1] + b[2]) / 3.0
+}
