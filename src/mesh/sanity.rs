@@ -84,6 +84,33 @@ impl Grid {
         }
         true
     }
+
+    /// Vertices in the cells within one cell of the segment [a, b]: a
+    /// superset of the vertices closer to it than half a cell (a point of
+    /// the segment is within half a cell of a sample, samples a cell apart).
+    /// Costs about `|b - a| / cell` lookups, however long the segment.
+    fn query_segment(&self, a: DVec3, b: DVec3, keys: &mut Vec<Cell>, out: &mut Vec<u32>) {
+        let steps = ((b - a).length() / self.cell).ceil().max(1.0) as usize;
+        keys.clear();
+        for i in 0..=steps {
+            let c = self.key(a.lerp(b, i as f64 / steps as f64));
+            for x in -1..=1 {
+                for y in -1..=1 {
+                    for z in -1..=1 {
+                        keys.push((c.0 + x, c.1 + y, c.2 + z));
+                    }
+                }
+            }
+        }
+        keys.sort_unstable();
+        keys.dedup();
+        out.clear();
+        for key in keys.iter() {
+            if let Some(vs) = self.cells.get(key) {
+                out.extend_from_slice(vs);
+            }
+        }
+    }
 }
 
 impl Mesh {
@@ -104,7 +131,8 @@ impl Mesh {
     /// * no T-junctions: no vertex of a patch lies inside an element edge of
     ///   that patch (1e-5 of the patch size).
     ///
-    /// Cost is about linear in the mesh size (per-patch spatial hashing).
+    /// Cost is about linear in the mesh size (per-patch spatial hashing,
+    /// cells of the median edge, long edges walked cell by cell).
     pub fn sanity_check(&self, scene: &Scene) -> Result<(), String> {
         self.check_ranges(scene)?;
         let extent = f64::from(scene.extent());
@@ -255,17 +283,26 @@ impl Mesh {
         let dup_tol = DUPLICATE_TOL * size;
         let edge_tol = ON_EDGE_TOL * size;
         let elements = &self.elements[range.start as usize..range.end as usize];
-        let longest = elements
+        // Cells of about the median edge: discontinuity meshes mix long
+        // edges in open regions with dense clusters along shadow lines, and
+        // cells as big as the longest edge would put whole clusters in one.
+        let mut lengths: Vec<f64> = elements
             .iter()
             .flat_map(|el| {
                 let c = el.corners();
                 (0..c.len()).map(move |k| (c[k], c[(k + 1) % c.len()]))
             })
             .map(|(a, b)| d(self.vertices[a as usize]).distance(d(self.vertices[b as usize])))
-            .fold(0.0, f64::max);
-        let cell = longest.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
+            .collect();
+        let median = if lengths.is_empty() {
+            0.0
+        } else {
+            let mid = lengths.len() / 2;
+            *lengths.select_nth_unstable_by(mid, f64::total_cmp).1
+        };
+        let cell = median.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
         let grid = Grid::new(cell, used, &self.vertices);
-        let mut near = Vec::new();
+        let (mut near, mut keys) = (Vec::new(), Vec::new());
 
         for &v in used {
             let q = d(self.vertices[v as usize]);
@@ -290,11 +327,9 @@ impl Mesh {
             for k in 0..c.len() {
                 let (ia, ib) = (c[k], c[(k + 1) % c.len()]);
                 let (a, b) = (d(self.vertices[ia as usize]), d(self.vertices[ib as usize]));
-                let slack = DVec3::splat(edge_tol);
-                if !grid.query(a.min(b) - slack, a.max(b) + slack, &mut near) {
-                    near.clear();
-                    near.extend_from_slice(used);
-                }
+                // edge_tol <= cell / 4: every vertex that could make a
+                // T-junction is in the cells along the edge.
+                grid.query_segment(a, b, &mut keys, &mut near);
                 let ab = b - a;
                 let len = ab.length();
                 if len <= 0.0 {
