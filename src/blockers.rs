@@ -27,9 +27,53 @@ pub struct BlockerTable {
 }
 
 impl BlockerTable {
+    /// Blockers of `target` seen from point `vertex` of `emitter`: its
+    /// vertex for `vertex < m`, else the midpoint of its edge `vertex - m`
+    /// (m the emitter's vertex count; asked only where the edge's ends see
+    /// blockers on the target).
     pub fn get(&self, emitter: usize, vertex: usize, target: usize) -> Option<Vec<usize>> {
         self.table.get(&(emitter, vertex, target)).cloned()
     }
+
+    /// Records the ids each tile saw: a target that does not show in its
+    /// own tile is not lit from there at all.
+    fn insert_seen(&mut self, keys: Vec<(usize, usize, usize)>, seen: Vec<Vec<u32>>) {
+        for ((e, k, t), ids) in keys.into_iter().zip(seen) {
+            if ids.binary_search(&(t as u32)).is_ok() {
+                let blockers = ids
+                    .into_iter()
+                    .map(|id| id as usize)
+                    .filter(|&id| id != t && id != e)
+                    .collect();
+                self.table.insert((e, k, t), blockers);
+            }
+        }
+    }
+}
+
+/// The GPU tile that looks at `target` from light point `v` of `emitter`,
+/// if the emitter lights the target from there at all.
+fn light_tile(
+    v: Vec3,
+    emitter: &crate::scene::Patch,
+    target: &crate::scene::Patch,
+    (first_vertex, vertex_count): (u32, u32),
+    tile_res: u32,
+) -> Option<VisibilityTile> {
+    // The emitter lights only its front half-space.
+    if !target
+        .vertices
+        .iter()
+        .any(|p| (*p - v).dot(emitter.normal) > 0.0)
+    {
+        return None;
+    }
+    let view_proj = tile_view(v, &target.vertices, target.normal, tile_res)?;
+    Some(VisibilityTile {
+        view_proj,
+        first_vertex,
+        vertex_count,
+    })
 }
 
 /// The view from light point `v` along the target's inward normal (the
@@ -98,42 +142,48 @@ pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Resul
                     continue;
                 }
                 table.pairs += 1;
-                // The emitter lights only its front half-space.
-                let lit = target
-                    .vertices
-                    .iter()
-                    .any(|p| (*p - v).dot(emitter.normal) > 0.0);
-                if !lit {
-                    continue;
-                }
-                if let Some(view_proj) = tile_view(v, &target.vertices, target.normal, tile_res) {
+                if let Some(tile) = light_tile(v, emitter, target, ranges[t], tile_res) {
                     keys.push((e, k, t));
-                    tiles.push(VisibilityTile {
-                        view_proj,
-                        first_vertex: ranges[t].0,
-                        vertex_count: ranges[t].1,
-                    });
+                    tiles.push(tile);
                 }
             }
         }
     }
-    table.tiles = tiles.len();
     if tiles.is_empty() {
         return Ok(table);
     }
     let mut pass = VisibilityPass::new(device, &triangles, scene.patches.len() as u32, tile_res)?;
-    let seen = pass.run(&tiles)?;
-    for ((e, k, t), ids) in keys.into_iter().zip(seen) {
-        // The target must show in its own tile to be lit from there at all.
-        if ids.binary_search(&(t as u32)).is_ok() {
-            let blockers = ids
-                .into_iter()
-                .map(|id| id as usize)
-                .filter(|&id| id != t && id != e)
-                .collect();
-            table.table.insert((e, k, t), blockers);
+    table.tiles = tiles.len();
+    table.insert_seen(keys, pass.run(&tiles)?);
+
+    // Edge-vertex events take their blockers from the whole emitter edge.
+    // A blocker can be hidden from both ends of an edge yet seen from its
+    // middle (two occluders, each hiding it from one end), so edges whose
+    // ends see blockers on a target are also looked at from their midpoint,
+    // key (e, m + k, t) for edge k of an emitter with m vertices.
+    let (mut keys, mut tiles) = (Vec::new(), Vec::new());
+    for (e, emitter) in scene.patches.iter().enumerate() {
+        if !scene.material_of(emitter).is_emitter() {
+            continue;
+        }
+        let m = emitter.vertices.len();
+        for k in 0..m {
+            let j = (k + 1) % m;
+            let mid = 0.5 * (emitter.vertices[k] + emitter.vertices[j]);
+            for (t, target) in scene.patches.iter().enumerate() {
+                let blocked = |v: usize| table.table.get(&(e, v, t)).is_some_and(|l| !l.is_empty());
+                if !(blocked(k) || blocked(j)) {
+                    continue;
+                }
+                if let Some(tile) = light_tile(mid, emitter, target, ranges[t], tile_res) {
+                    keys.push((e, m + k, t));
+                    tiles.push(tile);
+                }
+            }
         }
     }
+    table.tiles += tiles.len();
+    table.insert_seen(keys, pass.run(&tiles)?);
     table.times = pass.times.clone();
     Ok(table)
 }

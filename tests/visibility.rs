@@ -86,3 +86,57 @@ fn hidden_target_is_skipped_and_blocker_behind_target_is_ignored() {
         assert_eq!(table.get(0, k, 3), None);
     }
 }
+
+/// A blocker hidden from both ends of an emitter edge (each end's view cut
+/// off by its own occluder) but seen from the edge's midpoint: the oracle
+/// reports it under the midpoint's key, so the edge's EV events include it.
+#[test]
+fn edge_midpoint_sees_a_blocker_both_ends_miss() {
+    use common::{material, polygon, scene};
+    let device = common::device();
+    // x in [x0, x1], z in [z0, z1] at height y, facing up or down.
+    let rect = |x0: f32, x1: f32, y: f32, z0: f32, z1: f32, up: bool, m: usize| {
+        let mut v = vec![
+            Vec3::new(x0, y, z0),
+            Vec3::new(x0, y, z1),
+            Vec3::new(x1, y, z1),
+            Vec3::new(x1, y, z0),
+        ];
+        if !up {
+            v.reverse();
+        }
+        polygon(&v, m)
+    };
+    let floor = rect(-5.0, 5.0, 0.0, -5.0, 5.0, true, 0);
+    let hidden = rect(-0.1, 0.1, 2.0, -0.1, 0.1, true, 0);
+    let left_occluder = rect(-0.6, -0.05, 3.0, -1.0, 1.0, true, 0);
+    let right_occluder = rect(0.05, 0.6, 3.0, -1.0, 1.0, true, 0);
+    // Facing down; its edge from (1, 5, 0) to (-1, 5, 0) is edge 1.
+    let light = polygon(
+        &[
+            Vec3::new(0.0, 5.0, -0.5),
+            Vec3::new(1.0, 5.0, 0.0),
+            Vec3::new(-1.0, 5.0, 0.0),
+        ],
+        1,
+    );
+    let s = scene(
+        vec![floor, hidden, left_occluder, right_occluder, light],
+        vec![material(0.5, 0.0), material(0.0, 1.0)],
+    );
+    assert!(s.patches[4].normal.y < 0.0);
+    let table = gpu_blockers(&device, &s, 256).unwrap();
+    common::assert_validation_clean(&device);
+    let (floor, hidden, light, m) = (0, 1, 4, 3);
+    for end in [1, 2] {
+        let seen = table.get(light, end, floor).expect("floor lit");
+        assert!(
+            !seen.contains(&hidden) && seen.contains(&2) && seen.contains(&3),
+            "end {end} sees {seen:?}"
+        );
+    }
+    let middle = table
+        .get(light, m + 1, floor)
+        .expect("asked at the midpoint");
+    assert!(middle.contains(&hidden), "midpoint sees {middle:?}");
+}

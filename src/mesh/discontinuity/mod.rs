@@ -8,7 +8,9 @@
 //!   the part strictly in front of T and below V's height, so nothing is
 //!   projected through V or from behind T), clipped to T (Cyrus-Beck);
 //! * beyond the thesis, the EV events: blocker vertex W with emitter edge
-//!   V1-V2 gives the segment between W's shadows from V1 and from V2;
+//!   V1-V2 gives the segment between W's shadows from V1 and from V2, for
+//!   the blockers seen from V1, V2 or the edge's midpoint (a sample: a
+//!   blocker seen only from elsewhere along the edge is still missed);
 //! * contact (D0) boundaries: blocker edges lying in T's plane.
 //!
 //! The segments of a target, its boundary and the points other patches put
@@ -120,7 +122,8 @@ pub struct DiscontinuityStats {
 }
 
 /// The conservative CPU visibility oracle: for emitter patch `e`, its vertex
-/// `v` and target patch `t`, `None` when `v` is not strictly in front of
+/// `v` (or for `v >= m`, the midpoint of its edge `v - m`, m its vertex
+/// count) and target patch `t`, `None` when `v` is not strictly in front of
 /// `t`'s plane or `t` lies wholly behind the emitter's plane; else every
 /// patch other than `t` and `e` with a vertex strictly in front of `t`'s
 /// plane and strictly below `v`'s height above it, that is not wholly
@@ -135,7 +138,14 @@ pub fn cpu_blockers(scene: &Scene) -> impl Fn(usize, usize, usize) -> Option<Vec
     move |e, vi, t| {
         let emitter = scene.patches.get(e)?;
         let target = scene.patches.get(t)?;
-        let v = emitter.vertices.get(vi)?.as_dvec3();
+        // Vertex vi, or the midpoint of edge vi - m.
+        let m = emitter.vertices.len();
+        let v = if vi < m {
+            emitter.vertices[vi].as_dvec3()
+        } else {
+            let k = vi.checked_sub(m).filter(|&k| k < m)?;
+            (0.5 * (emitter.vertices[k] + emitter.vertices[(k + 1) % m])).as_dvec3()
+        };
         let n = target.normal.as_dvec3();
         let t0 = target.vertices.first()?.as_dvec3();
         let height = |p: DVec3| (p - t0).dot(n);
@@ -198,6 +208,8 @@ pub fn cpu_blockers(scene: &Scene) -> impl Fn(usize, usize, usize) -> Option<Vec
 /// emitters' vertices; see the module documentation. `blockers(e, v, t)`
 /// answers `None` when target `t` is not visible from vertex `v` of emitter
 /// `e`, else the patches that may shadow `t` from there (a superset is fine).
+/// For `v >= m` (m the emitter's vertex count) it is asked the same of the
+/// midpoint of edge `v - m`, whose blockers join the edge's EV events.
 ///
 /// Every patch gets elements (triangles, counter-clockwise seen from its
 /// front, in patch order); vertices are per patch. Errors only for invalid
@@ -399,6 +411,16 @@ fn collect_segments(
             union.clear();
             for l in [&per_vertex[i], &per_vertex[j]].into_iter().flatten() {
                 union.extend_from_slice(l);
+            }
+            // And what the edge's midpoint sees (key m + i; asked of the
+            // oracle only where the ends see blockers).
+            if union.iter().any(|&b| b != t && b != e) {
+                if let Some(l) = blockers(e, m + i, t) {
+                    union.extend(
+                        l.into_iter()
+                            .filter(|&b| b != t && b != e && b < patches.len()),
+                    );
+                }
             }
             union.sort_unstable();
             union.dedup();
