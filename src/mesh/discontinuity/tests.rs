@@ -469,3 +469,33 @@ fn gpu_blocker_subset_leaves_no_t_junction_at_a_collinear_gap() {
         assert!(stats.sliver_flips > 0, "{stats:?}");
     }
 }
+
+/// Regression, found by `random_blockers_never_break_the_mesh` (seed 4):
+/// two blockers standing on one vertical line share part of an edge, and
+/// their lower corners on it are 1.44e-4 apart: closer than the larger
+/// patch's snap tolerance (so one shared-edge cluster), farther than its
+/// on-edge tolerance. Each kept its own corner, so the smaller blocker's
+/// corner lay inside the larger's edge (a T-junction between patches): a
+/// side now also gets a vertex at every other patch's corner in a cluster.
+#[test]
+fn nearby_corners_on_a_shared_edge_leave_no_t_junction() {
+    let b0 = [
+        [-2.0, 0.029463947, -2.0],
+        [-1.5, 0.029463947, -2.0],
+        [-2.0, 0.079463944, -2.0],
+    ];
+    let b1 = [
+        [-2.0, 0.029319823, -2.0],
+        [-1.5, 0.029319823, -2.0],
+        [-2.0, 1.554162, -2.0],
+    ];
+    let scene = random_scene(&[b0, b1]);
+    for max_edge in [None, Some(0.7)] {
+        let options = DiscontinuityOptions {
+            max_edge,
+            ..Default::default()
+        };
+        let (mesh, _) = mesh_of(&scene, &options);
+        check(&scene, &mesh);
+    }
+}
