@@ -273,15 +273,11 @@ proptest! {
     ) {
         let mut blockers = blockers;
         if duplicate {
-            // Coincident segments: the same blocker twice. (Near-coincident
-            // overlapping copies are a known gap, see the ignored tests.)
+            // Coincident segments: the same blocker twice.
             let b = blockers[0];
             blockers.push(b);
         }
         let scene = random_scene(&blockers);
-        // Refinement with overlapping duplicate patches is a known gap:
-        // `refined_overlapping_duplicates_can_leave_a_sliver`.
-        let refine = refine && !duplicate;
         let options = DiscontinuityOptions {
             max_edge: refine.then_some(0.7),
             ..Default::default()
