@@ -315,7 +315,8 @@ impl Arrangement {
     }
 
     /// Adds points on every boundary edge so that no two consecutive
-    /// boundary vertices are more than `max_len` apart.
+    /// boundary vertices are more than `max_len` apart, except within the
+    /// snap tolerance of another edge.
     pub fn subdivide_boundary(&mut self, max_len: f64) {
         if !(max_len > 0.0) {
             return;
@@ -330,7 +331,18 @@ impl Arrangement {
                     let pieces = (gap / max_len).ceil().min(1e6) as usize;
                     for i in 1..pieces {
                         let t = w[0].0 + (w[1].0 - w[0].0) * i as f64 / pieces as f64;
-                        self.insert_on_edge(k, t, self.snap * 1e-3);
+                        // Not within the snap tolerance of another edge (in
+                        // an acute corner, or all over a patch thinner than
+                        // the tolerance): there a point would lie within it
+                        // of a boundary edge it is not on (see
+                        // `snap_to_boundary`).
+                        let q = self.edge_point(k, t);
+                        let near_other = (0..n).filter(|&j| j != k).any(|j| {
+                            segment_distance(q, self.poly[j], self.poly[(j + 1) % n]).0 <= self.snap
+                        });
+                        if !near_other {
+                            self.insert_on_edge(k, t, self.snap * 1e-3);
+                        }
                     }
                 }
             }

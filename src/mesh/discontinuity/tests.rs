@@ -495,3 +495,25 @@ fn nearby_corners_on_a_shared_edge_leave_no_t_junction() {
         check(&scene, &mesh);
     }
 }
+
+/// Regression, found by `random_blockers_never_break_the_mesh` (seed 5,
+/// 5000 cases): a blocker 5.3 long and at most 3e-4 wide (thinner than the
+/// snap tolerance all over). Refinement subdivided both long edges, and
+/// every point on one lay within the on-edge tolerance of the other (a
+/// T-junction); boundary points are no longer added within the snap
+/// tolerance of another edge.
+#[test]
+fn refined_needle_blocker_leaves_no_t_junction() {
+    let b = [
+        [0.0, 5.330656, 0.0008806063],
+        [0.0, 0.0, 0.0],
+        [0.0, 4.551768, 0.00058568653],
+    ];
+    let scene = random_scene(&[b]);
+    let options = DiscontinuityOptions {
+        max_edge: Some(0.7),
+        ..Default::default()
+    };
+    let (mesh, _) = mesh_of(&scene, &options);
+    check(&scene, &mesh);
+}
