@@ -135,6 +135,23 @@ impl Arrangement {
         if dist > self.snap && !outside {
             return Err((p, Tag::default()));
         }
+        // Within the snap tolerance of an adjacent edge too: in an acute
+        // corner that holds up to snap / sin(angle) from the corner, and a
+        // vertex left on one edge would lie within the tolerance of the
+        // other (a sliver strip along it, a T-junction once that edge is
+        // subdivided). The corner is the one boundary point on both.
+        let within = |e: usize| {
+            let (a, b) = (self.poly[e], self.poly[(e + 1) % n]);
+            segment_distance(p, a, b).0 <= self.snap
+        };
+        if n >= 3 {
+            if within((k + n - 1) % n) {
+                return Ok(k as u32);
+            }
+            if within((k + 1) % n) {
+                return Ok(((k + 1) % n) as u32);
+            }
+        }
         let (a, b) = (self.poly[k], self.poly[(k + 1) % n]);
         let len = a.distance(b);
         if t * len <= self.snap {
@@ -298,7 +315,8 @@ impl Arrangement {
     }
 
     /// Adds points on every boundary edge so that no two consecutive
-    /// boundary vertices are more than `max_len` apart.
+    /// boundary vertices are more than `max_len` apart, except within the
+    /// snap tolerance of another edge.
     pub fn subdivide_boundary(&mut self, max_len: f64) {
         if !(max_len > 0.0) {
             return;
@@ -313,7 +331,18 @@ impl Arrangement {
                     let pieces = (gap / max_len).ceil().min(1e6) as usize;
                     for i in 1..pieces {
                         let t = w[0].0 + (w[1].0 - w[0].0) * i as f64 / pieces as f64;
-                        self.insert_on_edge(k, t, self.snap * 1e-3);
+                        // Not within the snap tolerance of another edge (in
+                        // an acute corner, or all over a patch thinner than
+                        // the tolerance): there a point would lie within it
+                        // of a boundary edge it is not on (see
+                        // `snap_to_boundary`).
+                        let q = self.edge_point(k, t);
+                        let near_other = (0..n).filter(|&j| j != k).any(|j| {
+                            segment_distance(q, self.poly[j], self.poly[(j + 1) % n]).0 <= self.snap
+                        });
+                        if !near_other {
+                            self.insert_on_edge(k, t, self.snap * 1e-3);
+                        }
                     }
                 }
             }
@@ -572,6 +601,23 @@ mod tests {
         assert_eq!(arr.points.len(), 4 + 3);
         assert_eq!(arr.points[4], DVec2::new(0.2, 0.0));
         assert!(arr.tags[4].on_edge(0));
+    }
+
+    #[test]
+    fn near_both_edges_of_an_acute_corner_snaps_to_it() {
+        // The corner (1, 0) has an angle of 5.7 degrees.
+        let wedge = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 0.1),
+        ];
+        let mut arr = Arrangement::new(&wedge, 1e-4);
+        // 5e-4 from the corner, 5e-5 from the edge (1, 0)-(0, 0.1).
+        assert_eq!(arr.insert(DVec2::new(1.0 - 5e-4, 0.0)), Some(1));
+        assert_eq!(arr.insert(DVec2::new(1.0 - 5e-4, 1e-5)), Some(1));
+        // 2e-3 from it, 2e-4 from that edge: a vertex on the bottom edge.
+        assert_eq!(arr.insert(DVec2::new(1.0 - 2e-3, 0.0)), Some(3));
+        assert!(arr.tags[3].on_edge(0) && !arr.tags[3].on_edge(1));
     }
 
     #[test]

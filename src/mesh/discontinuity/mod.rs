@@ -107,7 +107,8 @@ pub struct DiscontinuityStats {
     /// failed, and patches meshed as a plain fan (degenerate input).
     pub fallbacks: usize,
     /// Edge flips that removed slivers (an apex within the snap tolerance of
-    /// the opposite edge), and short-edge collapses where no flip could.
+    /// the opposite edge), short-edge collapses where no flip could, and
+    /// Steiner vertices where neither could (a thin trapezoid).
     pub sliver_flips: usize,
     /// Patches where refinement hit `max_triangles_per_patch`.
     pub refinement_capped: usize,

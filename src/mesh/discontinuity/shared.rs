@@ -7,10 +7,12 @@
 //! of every patch whose edge covers both are clustered; a cluster with a
 //! patch corner is represented by that corner, any other by its midpoint
 //! (so a vertex moves by at most half the cluster's width). Each side then
-//! holds exactly one vertex per cluster that touches its edge: its own
-//! corner where the cluster has one, else the representative (an existing
-//! vertex of the cluster is moved there, the others merged into it, and a
-//! missing one is added).
+//! holds one vertex per cluster that touches its edge: its own corner where
+//! the cluster has one, else the representative (an existing vertex of the
+//! cluster is moved there, the others merged into it, and a missing one is
+//! added). Corners never move, so a cluster may hold corners of different
+//! patches that are farther apart than `sanity_check`'s on-edge tolerance:
+//! every side also gets a vertex at each such corner inside its edge.
 
 // `!(x > 0.0)` is used on purpose: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -34,6 +36,9 @@ struct Side {
     hi: f64,
     /// The patch's snap tolerance in world units.
     snap: f64,
+    /// Another patch's corner farther than this (world units) from the
+    /// side's vertices of its cluster gets a vertex of its own there.
+    weld: f64,
 }
 
 /// A boundary vertex of a side, at parameter `s` along the line.
@@ -51,6 +56,12 @@ struct Edits {
     adds: Vec<(usize, f64)>,
     merges: Vec<(u32, u32)>,
 }
+
+/// Relative to a patch's size: between `sanity_check`'s tolerances for
+/// duplicate vertices (1e-6) and for a vertex on an edge (1e-5), so that a
+/// corner of another patch is either within the on-edge tolerance of a
+/// vertex of the side or gets a vertex that is no duplicate.
+const CORNER_WELD: f64 = 5e-6;
 
 fn find(parent: &mut [usize], mut x: usize) -> usize {
     while parent[x] != x {
@@ -153,6 +164,7 @@ fn plan_group(
             lo: 0.0,
             hi: 0.0,
             snap: arr.snap * frame.size,
+            weld: CORNER_WELD * frame.size,
         });
     }
     let Some(longest) = sides
@@ -244,27 +256,50 @@ fn plan_group(
                 continue;
             }
             let e = edits.entry(side.p).or_default();
-            // The side's own corner, if the cluster has one.
+            let ab = side.b - side.a;
+            let t_of = |x: DVec3| (x - side.a).dot(ab) / ab.length_squared();
+            // Where the side's vertices of this cluster will be.
+            let mut held: Vec<f64> = Vec::with_capacity(2);
             if let Some(c) = mine.iter().find(|q| q.corner) {
+                // The side's own corner, if the cluster has one.
                 for q in mine.iter().filter(|q| !q.corner) {
                     e.merges.push((q.v, c.v));
                 }
-                continue;
-            }
-            let ab = side.b - side.a;
-            let t = (rep - side.a).dot(ab) / ab.length_squared();
-            if !(t > 0.0 && t < 1.0) {
-                // Cannot happen for a contiguous cluster; keep the vertices.
-                continue;
-            }
-            match mine.split_first() {
-                Some((first, rest)) => {
-                    e.moves.push((first.v, side.k, t));
-                    for q in rest {
-                        e.merges.push((q.v, first.v));
-                    }
+                held.push(c.s);
+            } else {
+                let t = t_of(rep);
+                if !(t > 0.0 && t < 1.0) {
+                    // Cannot happen for a contiguous cluster; keep the vertices.
+                    continue;
                 }
-                None => e.adds.push((side.k, t)),
+                match mine.split_first() {
+                    Some((first, rest)) => {
+                        e.moves.push((first.v, side.k, t));
+                        for q in rest {
+                            e.merges.push((q.v, first.v));
+                        }
+                    }
+                    None => e.adds.push((side.k, t)),
+                }
+                held.push(rep_s);
+            }
+            // The other patches' corners in the cluster that lie inside the
+            // side's edge, away from its vertices (corners never move, so
+            // two of them more than the check's on-edge tolerance apart
+            // must both be on every side between them).
+            for c in cluster.iter().filter(|q| q.corner && q.side != i) {
+                let within = c.s > side.lo + side.weld && c.s < side.hi - side.weld;
+                if !within || held.iter().any(|h| (h - c.s).abs() <= side.weld) {
+                    continue;
+                }
+                let Some(frame) = &frames[sides[c.side].p] else {
+                    continue;
+                };
+                let t = t_of(frame.corners3[c.v as usize]);
+                if t > 0.0 && t < 1.0 {
+                    e.adds.push((side.k, t));
+                    held.push(c.s);
+                }
             }
         }
     }

@@ -273,15 +273,11 @@ proptest! {
     ) {
         let mut blockers = blockers;
         if duplicate {
-            // Coincident segments: the same blocker twice. (Near-coincident
-            // overlapping copies are a known gap, see the ignored tests.)
+            // Coincident segments: the same blocker twice.
             let b = blockers[0];
             blockers.push(b);
         }
         let scene = random_scene(&blockers);
-        // Refinement with overlapping duplicate patches is a known gap:
-        // `refined_overlapping_duplicates_can_leave_a_sliver`.
-        let refine = refine && !duplicate;
         let options = DiscontinuityOptions {
             max_edge: refine.then_some(0.7),
             ..Default::default()
@@ -362,11 +358,17 @@ fn gpu_blocker_subset_leaves_no_near_duplicate_on_a_shared_edge() {
     }
 }
 
-/// Known gap: LEPP refinement of a patch with an overlapping coplanar
-/// duplicate (a proptest minimal case) leaves a sliver.
+/// Regression (a proptest minimal case): the copy offset by 1e-3 is 3e-4
+/// in front of the blocker's plane, so it casts its own outline on it; one
+/// shadow line ends on the blocker's edge (0,0,0)-(5,0,5) 2e-4 of the size
+/// from the 14-degree corner (5,0,5), within the snap tolerance of the other
+/// edge there too. Left on one edge, it made a constraint running within
+/// 5e-5 of the other edge along its whole length, and once refinement
+/// subdivided that edge the thin strip between them was a fan of slivers
+/// (T-junctions). A point within the snap tolerance of two adjacent edges
+/// now snaps to their corner.
 #[test]
-#[ignore]
-fn refined_overlapping_duplicates_can_leave_a_sliver() {
+fn refined_overlapping_duplicates_leave_no_sliver() {
     let b = [
         [0.0, 0.0, 0.0],
         [-3.0587275, 0.9868153, 0.0],
@@ -381,13 +383,18 @@ fn refined_overlapping_duplicates_can_leave_a_sliver() {
     check(&scene, &mesh);
 }
 
-/// Known gap, found by `random_blockers_never_break_the_mesh` (the minimal
+/// Regression, found by `random_blockers_never_break_the_mesh` (the minimal
 /// case proptest shrank it to): a vertical blocker triangle whose bottom
-/// edge runs parallel to the floor only 0.065 above it casts nearly
-/// coincident shadow lines, and the floor keeps a T-junction. Not fixed yet.
+/// edge runs parallel to the floor only 0.065 above it. The shadows of its
+/// slanted edge from two light vertices, and the EV events of its two ends
+/// with the light edge between them, bound a thin trapezoid on the floor
+/// (height 1.35e-4 of the floor's size, just over the snap tolerance; short
+/// side 0.0023, long side 0.147). Both triangulations of it have a vertex
+/// within 6e-6 of a diagonal, so neither a flip nor a collapse could remove
+/// the sliver: `fix_slivers` now puts a Steiner vertex on the long side at
+/// the foot of the apex, and then flips.
 #[test]
-#[ignore]
-fn low_parallel_blocker_can_leave_a_t_junction() {
+fn low_parallel_blocker_leaves_no_t_junction() {
     let b = [
         [0.29215026, 0.06504255, 0.0],
         [0.79215026, 0.06504255, 0.0],
@@ -457,4 +464,103 @@ fn gpu_blocker_subset_leaves_no_t_junction_at_a_collinear_gap() {
         check(&scene, &mesh);
         assert!(stats.sliver_flips > 0, "{stats:?}");
     }
+}
+
+/// Regression, found by `random_blockers_never_break_the_mesh` (seed 4):
+/// two blockers standing on one vertical line share part of an edge, and
+/// their lower corners on it are 1.44e-4 apart: closer than the larger
+/// patch's snap tolerance (so one shared-edge cluster), farther than its
+/// on-edge tolerance. Each kept its own corner, so the smaller blocker's
+/// corner lay inside the larger's edge (a T-junction between patches): a
+/// side now also gets a vertex at every other patch's corner in a cluster.
+#[test]
+fn nearby_corners_on_a_shared_edge_leave_no_t_junction() {
+    let b0 = [
+        [-2.0, 0.029463947, -2.0],
+        [-1.5, 0.029463947, -2.0],
+        [-2.0, 0.079463944, -2.0],
+    ];
+    let b1 = [
+        [-2.0, 0.029319823, -2.0],
+        [-1.5, 0.029319823, -2.0],
+        [-2.0, 1.554162, -2.0],
+    ];
+    let scene = random_scene(&[b0, b1]);
+    for max_edge in [None, Some(0.7)] {
+        let options = DiscontinuityOptions {
+            max_edge,
+            ..Default::default()
+        };
+        let (mesh, _) = mesh_of(&scene, &options);
+        check(&scene, &mesh);
+    }
+}
+
+/// Regression, found by `random_blockers_never_break_the_mesh` (seed 5,
+/// 5000 cases): a blocker 5.3 long and at most 3e-4 wide (thinner than the
+/// snap tolerance all over). Refinement subdivided both long edges, and
+/// every point on one lay within the on-edge tolerance of the other (a
+/// T-junction); boundary points are no longer added within the snap
+/// tolerance of another edge.
+#[test]
+fn refined_needle_blocker_leaves_no_t_junction() {
+    let b = [
+        [0.0, 5.330656, 0.0008806063],
+        [0.0, 0.0, 0.0],
+        [0.0, 4.551768, 0.00058568653],
+    ];
+    let scene = random_scene(&[b]);
+    let options = DiscontinuityOptions {
+        max_edge: Some(0.7),
+        ..Default::default()
+    };
+    let (mesh, _) = mesh_of(&scene, &options);
+    check(&scene, &mesh);
+}
+
+/// Known gap, found by `random_blockers_never_break_the_mesh` (seed 7,
+/// 5000 cases), not in the mesher: the blocker's own corner (0, 1.078,
+/// 1.7e-4) lies 9.8e-6 of its size from its opposite edge, inside the
+/// sanity check's on-edge tolerance (1e-5), so `sanity_check` reports a
+/// T-junction for the patch's one triangle, as it would for any mesh of
+/// it. The scene loader accepts such a face (it rejects only areas below
+/// 1e-9 of the size squared). Either the check should not count a patch's
+/// own corners against its own boundary, or such faces should be rejected
+/// (by the loader, or by `random_scene`).
+#[test]
+#[ignore]
+fn needle_patch_with_a_corner_within_the_check_tolerance_of_its_edge() {
+    let b = [
+        [0.0, 0.0, 0.0],
+        [0.0, 1.0780866, 0.00017457067],
+        [0.0, 4.4585004, 0.0009033573],
+    ];
+    let scene = random_scene(&[b]);
+    let (mesh, stats) = mesh_of(&scene, &DiscontinuityOptions::default());
+    assert_eq!(mesh.patch_elements[3].len(), 1, "{stats:?}");
+    check(&scene, &mesh);
+}
+
+/// Known gap, found by `random_blockers_never_break_the_mesh` (seed 8,
+/// 5000 cases, needle blockers like the one above left out): a small
+/// horizontal blocker 0.003 above the floor tiles' shared edge x = 2 casts
+/// shadow lines parallel to that edge 2.1e-4 of the tile's size inside it
+/// (two snap tolerances). With the edge they bound a thin trapezoid whose
+/// long side is the boundary edge and whose short side is 0.007 long, and
+/// both its triangulations have a vertex within 3.3e-6 of a diagonal.
+/// `fix_slivers` cannot put its Steiner vertex on a boundary edge (the
+/// neighbour tile must get the same point); a fix would add the foot of
+/// such a vertex on the boundary in pass 1, before the shared-edge
+/// clustering.
+#[test]
+#[ignore]
+fn shadow_parallel_to_a_shared_edge_can_leave_a_t_junction() {
+    let b = [
+        [2.0, 0.003171333, 0.0],
+        [2.0, 0.003171333, 0.030819159],
+        [2.0308192, 0.003171333, 0.0],
+    ];
+    let scene = random_scene(&[b]);
+    let (mesh, _) = mesh_of(&scene, &DiscontinuityOptions::default());
+    check(&scene, &mesh);
 }

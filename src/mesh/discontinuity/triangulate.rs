@@ -206,8 +206,12 @@ pub(crate) fn refine(
 /// improves them), the apex's edge to the nearer end of the opposite edge,
 /// if at most a few snap tolerances long, is collapsed instead: an interior
 /// vertex moves onto its neighbour (two nearly collinear constraints with a
-/// tiny gap between them become one). Vertices left unused are dropped.
-/// Returns the number of flips and collapses.
+/// tiny gap between them become one). Where neither can (the apex's edges
+/// are too long to collapse: a thin trapezoid of four nearly collinear
+/// vertices, both of whose triangulations are slivers), a Steiner vertex
+/// goes on an edge of the triangle across, at the foot of the apex, and the
+/// flip follows. Vertices left unused are dropped. Returns the number of
+/// flips, collapses and Steiner vertices.
 pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
     let mut r = Refiner::take(tri, poly, snap, f64::INFINITY);
     let mut flips = 0;
@@ -255,16 +259,7 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             };
             // Flip only when it strictly improves the worse of the two
             // triangles (smallest altitude), so flips cannot cycle.
-            let quality = |t: [u32; 3]| {
-                let [p, q, s] = t.map(|i| r.points[i as usize]);
-                let twice = (q - p).perp_dot(s - p);
-                let longest = p.distance(q).max(q.distance(s)).max(s.distance(p));
-                if longest > 0.0 {
-                    twice / longest
-                } else {
-                    0.0
-                }
-            };
+            let quality = |t: [u32; 3]| r.quality(t);
             let before = quality(v).min(quality(nv));
             if !(ccw(n1) && ccw(n2)) || px == pw || quality(n1).min(quality(n2)) <= before {
                 // No flip helps (the triangle across is as flat): a short
@@ -279,6 +274,14 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
                 if let Some(changed) = r.collapse_short_edge(w, near, COLLAPSE_SNAPS * snap, tol) {
                     flips += 1;
                     stack.extend(changed);
+                    break;
+                }
+                // Nor a collapse (a thin trapezoid): a Steiner vertex
+                // across, then this sliver again (its flip now helps).
+                if let Some(changed) = r.split_beside([a, b, w], x, tol) {
+                    flips += 1;
+                    stack.extend(changed);
+                    stack.push(t);
                     break;
                 }
                 continue;
@@ -333,6 +336,18 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
 /// collapses a short edge.
 const COLLAPSE_SNAPS: f64 = 4.0;
 
+/// Twice the signed area over the longest edge: the smallest altitude of a
+/// counter-clockwise triangle (negative when clockwise, 0 when degenerate).
+fn min_altitude([p, q, s]: [DVec2; 3]) -> f64 {
+    let twice = (q - p).perp_dot(s - p);
+    let longest = p.distance(q).max(q.distance(s)).max(s.distance(p));
+    if longest > 0.0 {
+        twice / longest
+    } else {
+        0.0
+    }
+}
+
 struct Refiner<'a> {
     limit: f64,
     poly: &'a [DVec2],
@@ -364,6 +379,11 @@ impl<'a> Refiner<'a> {
             r.link(t as u32);
         }
         r
+    }
+
+    /// Smallest altitude of triangle `t` (signed: negative when clockwise).
+    fn quality(&self, t: [u32; 3]) -> f64 {
+        min_altitude(t.map(|i| self.points[i as usize]))
     }
 
     fn alive_count(&self) -> usize {
@@ -456,16 +476,7 @@ impl<'a> Refiner<'a> {
             out.dedup();
             out
         };
-        let quality = |t: [u32; 3]| {
-            let [a, b, c] = t.map(|i| self.points[i as usize]);
-            let twice = (b - a).perp_dot(c - a);
-            let longest = a.distance(b).max(b.distance(c)).max(c.distance(a));
-            if longest > 0.0 {
-                twice / longest
-            } else {
-                0.0
-            }
-        };
+        let quality = |t: [u32; 3]| self.quality(t);
         for (mover, keep) in [(p, q), (q, p)] {
             if self.tags[mover as usize].on[0].is_some() {
                 continue;
@@ -583,8 +594,69 @@ impl<'a> Refiner<'a> {
                 }
             }
         }
+        self.split_at(e, mid)
+    }
+
+    /// The smallest altitude of the triangles that splitting edge `e` at
+    /// `q` would make (`None` when `e` is not an edge).
+    fn split_quality(&self, e: [u32; 2], q: DVec2) -> Option<f64> {
+        let slot = self.edges.get(&e)?;
+        let mut worst = f64::INFINITY;
+        for &t in slot.iter().filter(|&&t| t != u32::MAX) {
+            let v = self.tris[t as usize];
+            let k = (0..3).find(|&k| Self::key(v[k], v[(k + 1) % 3]) == e)?;
+            let [a, b, c] = [v[k], v[(k + 1) % 3], v[(k + 2) % 3]].map(|i| self.points[i as usize]);
+            worst = worst.min(min_altitude([a, q, c]).min(min_altitude([q, b, c])));
+        }
+        Some(worst)
+    }
+
+    /// Prepares the removal of the sliver `a`-`b`-`w`, whose apex `w` lies
+    /// within `tol` of edge `a`-`b`, where no flip or collapse can (the
+    /// triangle across, `b`-`a`-`x`, is as flat: the four vertices nearly
+    /// on one line, as in a thin trapezoid whose two triangulations both
+    /// have a vertex within `tol` of a diagonal). A Steiner vertex goes on
+    /// `a`-`x` or `x`-`b` (not a boundary edge) at the foot of `w`, when no
+    /// triangle that makes has an altitude below `tol`; the triangle across
+    /// `a`-`b` then has that vertex as its apex, and the flip of `a`-`b` to
+    /// `w` makes two triangles with about the foot's distance from `w` as
+    /// their altitude. Returns the changed triangles (the split's
+    /// children), or `None` when refused.
+    fn split_beside(&mut self, [a, b, w]: [u32; 3], x: u32, tol: f64) -> Option<Vec<u32>> {
+        let pw = self.points[w as usize];
+        let mut best: Option<([u32; 2], DVec2, f64)> = None;
+        for (p, q) in [(a, x), (x, b)] {
+            let e = Self::key(p, q);
+            if self.is_boundary(e) {
+                continue;
+            }
+            let (pp, pq) = (self.points[p as usize], self.points[q as usize]);
+            let d = pq - pp;
+            let u = (pw - pp).dot(d) / d.length_squared();
+            if !(u > 0.0 && u < 1.0) {
+                continue;
+            }
+            let foot = pp + d * u;
+            let Some(quality) = self.split_quality(e, foot) else {
+                continue;
+            };
+            if quality >= tol && best.is_none_or(|(_, _, b)| quality > b) {
+                best = Some((e, foot, quality));
+            }
+        }
+        let (e, foot, _) = best?;
+        let children = self.split_at(e, foot);
+        (!children.is_empty()).then_some(children)
+    }
+
+    /// Splits edge `e` at `q` (a point on it) in every triangle that has
+    /// it, with no checks; returns the children.
+    fn split_at(&mut self, e: [u32; 2], q: DVec2) -> Vec<u32> {
+        let Some(&slot) = self.edges.get(&e) else {
+            return Vec::new();
+        };
         let m = self.points.len() as u32;
-        self.points.push(mid);
+        self.points.push(q);
         self.tags.push(Tag::default());
         let mut children = Vec::new();
         for t in slot {
@@ -607,5 +679,58 @@ impl<'a> Refiner<'a> {
             }
         }
         children
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A thin trapezoid (height just over the snap tolerance, a short top
+    /// side over a long base) has a vertex within the sliver tolerance of
+    /// a diagonal in both its triangulations; a Steiner vertex on the base
+    /// removes the sliver.
+    #[test]
+    fn thin_trapezoid_gets_a_steiner_vertex() {
+        let poly = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        let snap = 1e-4;
+        let (y, h) = (0.5, 1.354e-4);
+        let corners = [
+            DVec2::new(0.2, y),
+            DVec2::new(0.347, y),
+            DVec2::new(0.2528, y + h),
+            DVec2::new(0.2505, y + h),
+        ];
+        let mut arr = Arrangement::new(&poly, snap);
+        let sides: Vec<(DVec2, DVec2)> =
+            (0..4).map(|k| (corners[k], corners[(k + 1) % 4])).collect();
+        arr.add_segments(&sides);
+        let mut tri = triangulate(&arr, true).expect("triangulates");
+        let tol = 0.3 * snap;
+        let worst = |tri: &Triangulated| {
+            tri.triangles
+                .iter()
+                .map(|t| min_altitude(t.map(|v| tri.points[v as usize])))
+                .fold(f64::INFINITY, f64::min)
+        };
+        assert!(worst(&tri) < tol, "the trapezoid is a sliver to begin with");
+        let before = tri.points.len();
+        assert!(fix_slivers(&mut tri, &poly, snap, tol) >= 2);
+        assert_eq!(tri.points.len(), before + 1, "one Steiner vertex");
+        assert!(worst(&tri) >= tol, "{}", worst(&tri));
+        let area: f64 = tri
+            .triangles
+            .iter()
+            .map(|t| {
+                let [p, q, s] = t.map(|v| tri.points[v as usize]);
+                0.5 * (q - p).perp_dot(s - p)
+            })
+            .sum();
+        assert!((area - 1.0).abs() < 1e-12, "{area}");
     }
 }
