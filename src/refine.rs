@@ -17,6 +17,7 @@ use glam::Vec3;
 
 use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::mesh::{Element, Mesh};
+use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 
 /// When to split.
@@ -149,14 +150,10 @@ fn is_emitter(scene: &Scene, e: &Element) -> bool {
 }
 
 fn longest_edge(mesh: &Mesh, element: usize) -> f32 {
-    let c = mesh.elements[element].corners();
-    (0..c.len())
-        .map(|k| {
-            mesh.vertices[c[k] as usize].distance(mesh.vertices[c[(k + 1) % c.len()] as usize])
-        })
-        .fold(0.0, f32::max)
-}
-
-fn luminance(b: [f32; 3]) -> f32 {
-    (b[0] + b[1] + b[2]) / 3.0
+    let corners: Vec<Vec3> = mesh.elements[element]
+        .corners()
+        .iter()
+        .map(|&v| mesh.vertices[v as usize])
+        .collect();
+    crate::mesh::uniform::longest_edge(&corners)
 }

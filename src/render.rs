@@ -14,7 +14,7 @@ use crate::projection::perspective;
 use crate::scene::{Camera, Scene};
 
 /// Supersampling factor per axis: edges of the Gouraud image are box-filtered.
-const SUPERSAMPLE: u32 = 2;
+pub const SUPERSAMPLE: u32 = 2;
 
 /// The scene's own camera, else one framed automatically on its bounds.
 pub fn default_camera(scene: &Scene) -> Camera {

@@ -19,10 +19,8 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::formfactor::gather::Gatherer;
 use crate::output::image_io::HdrImage;
-use crate::render::camera_view_proj;
+use crate::render::{camera_view_proj, SUPERSAMPLE};
 use crate::scene::{Camera, Scene};
-
-const SUPERSAMPLE: u32 = 2;
 
 /// A gathered image and which of its pixels measure shading.
 pub struct GatheredImage {

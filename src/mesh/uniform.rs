@@ -90,7 +90,8 @@ fn level_for(longest: f32, max_edge: f32) -> u32 {
     k
 }
 
-fn longest_edge(points: &[Vec3]) -> f32 {
+/// The longest side of a closed polygon.
+pub(crate) fn longest_edge(points: &[Vec3]) -> f32 {
     let n = points.len();
     (0..n)
         .map(|i| points[i].distance(points[(i + 1) % n]))

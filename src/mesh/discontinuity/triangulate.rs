@@ -186,15 +186,9 @@ pub(crate) fn refine(
         stack.push(t);
         stack.extend(children);
     }
+    tri.triangles = r.live_triangles();
     tri.points = r.points;
     tri.tags = r.tags;
-    tri.triangles = r
-        .tris
-        .iter()
-        .zip(&r.alive)
-        .filter(|(_, &a)| a)
-        .map(|(t, _)| *t)
-        .collect();
     capped
 }
 
@@ -298,13 +292,7 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             break;
         }
     }
-    let tris: Vec<[u32; 3]> = r
-        .tris
-        .iter()
-        .zip(&r.alive)
-        .filter(|(_, &a)| a)
-        .map(|(t, _)| *t)
-        .collect();
+    let tris = r.live_triangles();
     // Drop the vertices collapses left unused, keeping the others' order.
     let mut used = vec![false; r.points.len()];
     for t in &tris {
@@ -361,6 +349,16 @@ struct Refiner<'a> {
 }
 
 impl<'a> Refiner<'a> {
+    /// The triangles still in the mesh.
+    fn live_triangles(&self) -> Vec<[u32; 3]> {
+        self.tris
+            .iter()
+            .zip(&self.alive)
+            .filter(|(_, &a)| a)
+            .map(|(t, _)| *t)
+            .collect()
+    }
+
     /// Takes `tri`'s points and triangles (hand them back when done) and
     /// links every triangle to its edges.
     fn take(tri: &mut Triangulated, poly: &'a [DVec2], snap: f64, limit: f64) -> Self {
