@@ -346,11 +346,7 @@ pub fn run_render(
         .elements
         .iter()
         .zip(&solution.radiosity)
-        .filter(|(e, _)| {
-            !scene
-                .material_of(&scene.patches[e.patch as usize])
-                .is_emitter()
-        })
+        .filter(|(e, _)| !scene.patch_material(e.patch).is_emitter())
         .map(|(e, b)| (b[0] + b[1] + b[2]) as f64 * e.area as f64)
         .sum();
     if received <= 0.0 && solution.shots > 0 {

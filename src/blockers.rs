@@ -8,11 +8,11 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 
 use crate::error::Result;
-use crate::formfactor::hemicube::tangent_frame;
+use crate::geom::frustum::frustum;
+use crate::geom::tangent_frame;
 use crate::gpu::hemicube::ItemVertex;
 use crate::gpu::visibility::{VisibilityPass, VisibilityTile};
 use crate::gpu::{Device, StageTimes};
-use crate::projection::frustum;
 use crate::scene::Scene;
 
 /// Blockers per (emitter patch, emitter vertex, target patch): `None` when

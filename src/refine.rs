@@ -144,9 +144,7 @@ fn corner_mean(e: &Element, vertex_radiosity: &[[f32; 3]]) -> f32 {
 }
 
 fn is_emitter(scene: &Scene, e: &Element) -> bool {
-    scene
-        .material_of(&scene.patches[e.patch as usize])
-        .is_emitter()
+    scene.patch_material(e.patch).is_emitter()
 }
 
 fn longest_edge(mesh: &Mesh, element: usize) -> f32 {

@@ -6,11 +6,11 @@ use std::sync::Arc;
 use glam::{Mat4, Vec3};
 
 use crate::error::{Error, Result};
+use crate::geom::frustum::perspective;
 use crate::gpu::raster::{render_lit_mesh, LitVertex};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
-use crate::projection::perspective;
 use crate::scene::{Camera, Scene};
 
 /// Supersampling factor per axis: edges of the Gouraud image are box-filtered.
@@ -84,10 +84,7 @@ pub fn ambient_term(scene: &Scene, mesh: &Mesh, unshot: &[[f32; 3]]) -> Vec3 {
     let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
     for (e, u) in mesh.elements.iter().zip(unshot) {
         power += Vec3::from(*u) * e.area;
-        reflected += scene
-            .material_of(&scene.patches[e.patch as usize])
-            .reflectance
-            * e.area;
+        reflected += scene.patch_material(e.patch).reflectance * e.area;
         area += e.area;
     }
     if area <= 0.0 {
@@ -102,9 +99,7 @@ pub fn ambient_term(scene: &Scene, mesh: &Mesh, unshot: &[[f32; 3]]) -> Vec3 {
 pub fn add_ambient(scene: &Scene, mesh: &Mesh, radiosity: &mut [[f32; 3]], ambient: Vec3) {
     let mut done = vec![false; radiosity.len()];
     for e in &mesh.elements {
-        let rho = scene
-            .material_of(&scene.patches[e.patch as usize])
-            .reflectance;
+        let rho = scene.patch_material(e.patch).reflectance;
         for &v in e.corners() {
             if !std::mem::replace(&mut done[v as usize], true) {
                 radiosity[v as usize] =

@@ -74,8 +74,7 @@ pub fn gathered_image(
             }
             let shading = match patches[0] {
                 Some(p) => {
-                    patches.iter().all(|&q| q == Some(p))
-                        && !scene.material_of(&scene.patches[p as usize]).is_emitter()
+                    patches.iter().all(|&q| q == Some(p)) && !scene.patch_material(p).is_emitter()
                 }
                 None => false,
             };

@@ -12,15 +12,10 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::geom::newell;
+pub use crate::geom::polygon_area;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-
-/// The (unnormalised) Newell normal of a polygon: twice its area times its
-/// unit normal, pointing to the side from which it runs counter-clockwise.
-fn newell(poly: &[DVec3]) -> DVec3 {
-    let n = poly.len();
-    (0..n).fold(DVec3::ZERO, |acc, i| acc + poly[i].cross(poly[(i + 1) % n]))
-}
 
 /// Clips `poly` to the half-space `(x - p) . n >= 0` (Sutherland-Hodgman).
 fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
@@ -134,11 +129,6 @@ fn legendre(m: usize, x: f64) -> (f64, f64) {
     }
     let d = m as f64 * (x * p1 - p0) / (x * x - 1.0);
     (p1, d)
-}
-
-/// The area of a planar polygon.
-pub fn polygon_area(poly: &[DVec3]) -> f64 {
-    0.5 * newell(poly).length()
 }
 
 /// The form factor F_ij from planar polygon `from` (i) to planar polygon

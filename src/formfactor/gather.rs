@@ -57,9 +57,7 @@ impl<'a> Gatherer<'a> {
             .zip(radiosity)
             .filter(|(e, b)| e.area > 0.0 && b.iter().any(|&c| c > 0.0))
             .map(|(e, b)| {
-                let emits = scene
-                    .material_of(&scene.patches[e.patch as usize])
-                    .is_emitter();
+                let emits = scene.patch_material(e.patch).is_emitter();
                 (Shooter::new(mesh, e), Vec3::from_array(*b), emits)
             })
             .collect();

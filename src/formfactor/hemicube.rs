@@ -7,7 +7,8 @@
 
 use glam::{Mat4, Vec3};
 
-use crate::projection::frustum;
+use crate::geom::frustum::frustum;
+use crate::geom::tangent_frame;
 
 /// Fixed-point scale of accumulated form factors: F = sum / 2^31 (a full
 /// hemicube sums to exactly 1, so any element's sum fits in a u32).
@@ -96,14 +97,6 @@ impl Hemicube {
             side * Mat4::look_to_rh(centre, -b, normal),
         ]
     }
-}
-
-/// Two unit tangents (t, b) with t x b = n.
-pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
-    let helper = if n.x.abs() < 0.9 { Vec3::X } else { Vec3::Y };
-    let t = helper.cross(n).normalize();
-    let b = n.cross(t);
-    (t, b)
 }
 
 #[cfg(test)]

@@ -1081,7 +1081,7 @@ mod tests {
         let light = mesh
             .elements
             .iter()
-            .position(|e| s.material_of(&s.patches[e.patch as usize]).is_emitter())
+            .position(|e| s.patch_material(e.patch).is_emitter())
             .expect("a light element");
         let f = rt.from_shooter(light, 16, 1);
         let exact = element_form_factors_analytic(&s, &mesh, light);

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec3};
 
 use super::Mesh;
+use crate::geom::newell;
 use crate::scene::Scene;
 
 /// Relative tolerance (to the patch size) under which two vertices of one
@@ -26,14 +27,6 @@ const MAX_QUERY_CELLS: i64 = 64;
 
 fn d(v: Vec3) -> DVec3 {
     v.as_dvec3()
-}
-
-/// Twice the vector area (Newell's method) of a polygon.
-fn newell(points: &[DVec3]) -> DVec3 {
-    let n = points.len();
-    (0..n).fold(DVec3::ZERO, |acc, i| {
-        acc + points[i].cross(points[(i + 1) % n])
-    })
 }
 
 type Cell = (i64, i64, i64);

@@ -104,6 +104,11 @@ impl Scene {
         &self.materials[patch.material]
     }
 
+    /// The material of patch number `patch` (an element's parent).
+    pub fn patch_material(&self, patch: u32) -> &Material {
+        &self.materials[self.patches[patch as usize].material]
+    }
+
     /// Total emitted power Phi = sum over emitters of pi * L_e * A (per channel).
     pub fn emitted_power(&self) -> Vec3 {
         self.patches

@@ -5,6 +5,8 @@
 
 use glam::{DVec2, DVec3, Vec3};
 
+use crate::geom::newell;
+
 /// Largest allowed distance of a vertex from the polygon's plane, relative
 /// to the polygon's size (its longest edge or diagonal).
 pub const PLANARITY_TOLERANCE: f64 = 1e-3;
@@ -53,19 +55,6 @@ fn reject(what: impl Into<String>, hint: &'static str) -> Rejection {
         what: what.into(),
         hint,
     }
-}
-
-/// Newell's normal: twice the area vector of the (possibly non-planar)
-/// polygon, pointing to the side from which the vertices run CCW.
-pub(crate) fn newell(v: &[DVec3]) -> DVec3 {
-    let mut n = DVec3::ZERO;
-    for (i, a) in v.iter().enumerate() {
-        let b = v[(i + 1) % v.len()];
-        n.x += (a.y - b.y) * (a.z + b.z);
-        n.y += (a.z - b.z) * (a.x + b.x);
-        n.z += (a.x - b.x) * (a.y + b.y);
-    }
-    n
 }
 
 fn size(v: &[DVec3]) -> f64 {

@@ -124,7 +124,7 @@ impl GpuMesh {
                     });
                 }
             }
-            let m = scene.material_of(&scene.patches[e.patch as usize]);
+            let m = scene.patch_material(e.patch);
             reflectance_area.push(m.reflectance.extend(e.area).to_array());
             // Emitted radiosity E = pi * L_e.
             emission.push((m.emission * std::f32::consts::PI).extend(0.0).to_array());
@@ -260,7 +260,7 @@ pub fn solve(
             vertex_patch[v as usize] = e.patch;
         }
     }
-    let vertex_material = |v: usize| scene.material_of(&scene.patches[vertex_patch[v] as usize]);
+    let vertex_material = |v: usize| scene.patch_material(vertex_patch[v]);
     let mut vertex_radiosity: Option<Vec<[f32; 3]>> = match &cpu_form_factors {
         Some(_) => Some(
             (0..mesh.vertices.len())

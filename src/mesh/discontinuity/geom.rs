@@ -43,9 +43,7 @@ impl Frame {
             return None;
         }
         let origin = corners3[0];
-        let newell: DVec3 = (0..corners3.len())
-            .map(|i| corners3[i].cross(corners3[(i + 1) % corners3.len()]))
-            .sum();
+        let newell = crate::geom::newell(&corners3);
         let mut n = patch.normal.as_dvec3();
         if !(n.length() > 0.5) || newell.dot(n) <= 0.0 {
             n = newell;
