@@ -11,7 +11,7 @@ mod common;
 
 use common::{arg, device_selector, median};
 use vkrad::gpu::{Device, DeviceOptions};
-use vkrad::meshing::{build_mesh, MeshSettings, Mesher};
+use vkrad::mesh::build::{build_mesh, MeshSettings, Mesher};
 
 fn main() {
     let runs: usize = arg("--runs", 5);
@@ -44,7 +44,7 @@ fn main() {
             .expect("built-in scene")
             .expect("scene loads");
         let settings = MeshSettings {
-            mesher: Mesher::Discontinuity { refine: false },
+            mesher: Mesher::Discontinuity { subdivide: false },
             max_edge: vkrad::mesh::default_max_edge(&scene),
             dm_res,
         };

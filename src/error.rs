@@ -76,6 +76,11 @@ pub enum Error {
     #[error("{0}")]
     Invalid(String),
 
+    /// A mesh failed its sanity check (a defect of a mesher, not of the
+    /// input): what is wrong, where.
+    #[error("the mesh is not sound: {0}")]
+    Mesh(String),
+
     /// An output could not be produced.
     #[error("cannot write {}: {what}", path.display())]
     Output { path: PathBuf, what: String },

@@ -6,13 +6,11 @@
 
 pub mod app;
 pub mod bench;
-pub mod blockers;
 pub mod error;
 pub mod formfactor;
 pub mod geom;
 pub mod gpu;
 pub mod mesh;
-pub mod meshing;
 pub mod output;
 pub mod refine;
 pub mod render;

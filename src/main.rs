@@ -13,7 +13,7 @@ use glam::Vec3;
 
 use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
 use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::meshing::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
+use vkrad::mesh::build::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
 
 #[derive(Parser)]
@@ -71,13 +71,14 @@ struct MeshArgs {
     #[arg(long, default_value_t = 256, value_name = "PIXELS")]
     hemicube_res: u32,
     /// Mesher: uniform quadtree, or discontinuity meshing (shadow boundaries
-    /// from every emitter vertex and edge, refined to --max-edge unless
-    /// --no-refine).
+    /// from every emitter vertex and edge, subdivided to --max-edge unless
+    /// --no-subdivide).
     #[arg(long = "mesh", value_enum, default_value_t = MesherArg::Uniform)]
     mesher: MesherArg,
-    /// Discontinuity meshing without uniform refinement on top.
-    #[arg(long)]
-    no_refine: bool,
+    /// Discontinuity meshing without subdividing its elements to --max-edge
+    /// (the thesis's mesh: shadow boundaries only).
+    #[arg(long, alias = "no-refine")]
+    no_subdivide: bool,
     /// Tile side in pixels of the discontinuity mesher's GPU visibility pass.
     #[arg(long, default_value_t = 128, value_name = "PIXELS")]
     dm_res: u32,
@@ -108,7 +109,7 @@ impl MeshArgs {
         match self.mesher {
             MesherArg::Uniform => Mesher::Uniform,
             MesherArg::Discontinuity => Mesher::Discontinuity {
-                refine: !self.no_refine,
+                subdivide: !self.no_subdivide,
             },
         }
     }

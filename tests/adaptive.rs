@@ -12,7 +12,7 @@ use vkrad::app::{run_render, RenderJob};
 use vkrad::bench::meshers::gathered_reference;
 use vkrad::bench::relative_rms_error_where;
 use vkrad::formfactor::gather::{GatherRays, Gatherer};
-use vkrad::meshing::{build_mesh, MeshSettings, Mesher};
+use vkrad::mesh::build::{build_mesh, MeshSettings, Mesher};
 use vkrad::output::image_io::{save_image, HdrImage};
 use vkrad::solve::{solve, FormFactorMethod, Progress, SolveSettings};
 
@@ -123,7 +123,7 @@ fn adaptive_discontinuity_mesh_beats_uniform_at_equal_element_count() {
     let uniform = render(Mesher::Uniform, scene.extent() / 16.0, None);
     let n = uniform.mesh.elements.len();
     let adaptive = render(
-        Mesher::Discontinuity { refine: false },
+        Mesher::Discontinuity { subdivide: false },
         scene.extent() / 4.0,
         Some(n),
     );

@@ -317,7 +317,7 @@ fn wireframe_darkens_mesh_edges() {
             "4",
             "--mesh",
             "discontinuity",
-            "--no-refine",
+            "--no-subdivide",
             "--validate",
         ];
         args.extend_from_slice(extra);

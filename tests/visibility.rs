@@ -5,7 +5,7 @@
 mod common;
 
 use glam::Vec3;
-use vkrad::blockers::gpu_blockers;
+use vkrad::mesh::discontinuity::visibility::gpu_blockers;
 
 #[test]
 fn simple_scene_blocker_shadows_the_floor_from_every_light_vertex() {

@@ -23,7 +23,7 @@ use crate::app::{run_render, RenderJob};
 use crate::error::{Error, Result};
 use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::gpu::Device;
-use crate::meshing::{build_mesh, MeshSettings, Mesher};
+use crate::mesh::build::{build_mesh, MeshSettings, Mesher};
 use crate::output::HdrImage;
 use crate::solve::{solve, FormFactorMethod, SolveSettings};
 
@@ -195,13 +195,13 @@ pub fn run_mesher_bench(
         push(
             DM_REFINED,
             format!("max edge {m:.3}"),
-            run(Mesher::Discontinuity { refine: true }, m, None)?,
+            run(Mesher::Discontinuity { subdivide: true }, m, None)?,
         )?;
         push(
             DM_ADAPTIVE,
             format!("budget {n}"),
             run(
-                Mesher::Discontinuity { refine: false },
+                Mesher::Discontinuity { subdivide: false },
                 extent / 4.0,
                 Some(n),
             )?,

@@ -22,11 +22,11 @@ pub struct Hemicube {
 
 impl Hemicube {
     /// `res` must be even (side faces are half height) and at least 2.
-    pub fn new(res: u32) -> Result<Self, String> {
+    pub fn new(res: u32) -> crate::Result<Self> {
         if res < 2 || res % 2 != 0 || res > 8192 {
-            return Err(format!(
+            return Err(crate::Error::Invalid(format!(
                 "hemicube resolution must be an even number from 2 to 8192, got {res}"
-            ));
+            )));
         }
         Ok(Hemicube { res })
     }

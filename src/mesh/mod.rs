@@ -4,6 +4,7 @@ use std::ops::Range;
 
 use glam::Vec3;
 
+pub mod build;
 pub mod discontinuity;
 mod sanity;
 pub mod uniform;

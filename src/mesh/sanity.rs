@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use glam::{DVec3, Vec3};
 
 use super::Mesh;
+use crate::error::Error;
 use crate::geom::newell;
 use crate::scene::Scene;
 
@@ -126,7 +127,12 @@ impl Mesh {
     ///
     /// Cost is about linear in the mesh size (per-patch spatial hashing,
     /// cells of the median edge, long edges walked cell by cell).
-    pub fn sanity_check(&self, scene: &Scene) -> Result<(), String> {
+    pub fn sanity_check(&self, scene: &Scene) -> crate::Result<()> {
+        self.first_defect(scene).map_err(Error::Mesh)
+    }
+
+    /// The first failure of [`Mesh::sanity_check`], described.
+    fn first_defect(&self, scene: &Scene) -> Result<(), String> {
         self.check_ranges(scene)?;
         let extent = f64::from(scene.extent());
         let plane_tol = PLANE_TOL * if extent.is_finite() { extent } else { 0.0 };
@@ -468,7 +474,7 @@ impl Mesh {
     /// [`Mesh::sanity_check`] plus [`Mesh::check_cross_patch`]: for meshers
     /// that promise a watertight mesh across patches (the discontinuity
     /// mesher; the uniform mesher splits neighbours independently).
-    pub fn sanity_check_watertight(&self, scene: &Scene) -> Result<(), String> {
+    pub fn sanity_check_watertight(&self, scene: &Scene) -> crate::Result<()> {
         self.sanity_check(scene)?;
         self.check_cross_patch(scene)
     }
@@ -478,8 +484,13 @@ impl Mesh {
     /// inside (farther than 1e-5 of Q's size from the ends) a boundary edge
     /// of one of Q's elements on it. Expects `patch_elements` to be valid
     /// (run [`Mesh::sanity_check`] first). About linear in the mesh size.
+    pub fn check_cross_patch(&self, scene: &Scene) -> crate::Result<()> {
+        self.first_cross_patch_defect(scene).map_err(Error::Mesh)
+    }
+
+    /// The first failure of [`Mesh::check_cross_patch`], described.
     #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN never passes
-    pub fn check_cross_patch(&self, scene: &Scene) -> Result<(), String> {
+    fn first_cross_patch_defect(&self, scene: &Scene) -> Result<(), String> {
         if self.patch_elements.len() != scene.patches.len() {
             return Err("patch_elements does not match the scene".into());
         }
@@ -601,7 +612,10 @@ mod tests {
     fn fails_with(s: &Scene, mesh: &Mesh, words: &str) {
         match mesh.sanity_check(s) {
             Ok(()) => panic!("broken mesh passed (expected '{words}')"),
-            Err(msg) => assert!(msg.contains(words), "expected '{words}', got: {msg}"),
+            Err(msg) => assert!(
+                msg.to_string().contains(words),
+                "expected '{words}', got: {msg}"
+            ),
         }
     }
 
@@ -811,7 +825,10 @@ mod tests {
         let mesh = uniform(&s2, 1.0);
         mesh.sanity_check(&s2).expect("sane per patch");
         let err = mesh.check_cross_patch(&s2).expect_err("T-junction");
-        assert!(err.contains("T-junction between patches"), "{err}");
+        assert!(
+            err.to_string().contains("T-junction between patches"),
+            "{err}"
+        );
         // Patches that only touch at a corner share nothing.
         let c = [
             Vec3::new(1.0, 1.0, 0.0),

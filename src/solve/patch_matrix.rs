@@ -30,7 +30,7 @@ pub fn patch_form_factors(
     res: u32,
     mut on_patch: impl FnMut(usize, usize),
 ) -> Result<PatchFormFactors> {
-    let hemicube = Hemicube::new(res).map_err(Error::Invalid)?;
+    let hemicube = Hemicube::new(res)?;
     let gpu_mesh = GpuMesh::new(scene, mesh);
     let mut engine = gpu_mesh.engine(device, hemicube)?;
     let n = scene.patches.len();

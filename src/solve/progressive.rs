@@ -230,7 +230,7 @@ pub fn solve(
     mut on_progress: impl FnMut(&Progress) -> bool,
 ) -> Result<Solution> {
     let start = Instant::now();
-    let hemicube = Hemicube::new(settings.hemicube_res).map_err(Error::Invalid)?;
+    let hemicube = Hemicube::new(settings.hemicube_res)?;
     let gpu_mesh = GpuMesh::new(scene, mesh);
     let mut engine = gpu_mesh.engine(device, hemicube)?;
 

@@ -11,7 +11,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::DVec2;
 
-use super::geom::segment_distance;
+use super::project::segment_distance;
 
 /// Where a vertex lies on the target's boundary: up to two boundary edges
 /// (two at a corner) with the parameter along each.

@@ -26,31 +26,25 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{DVec2, DVec3, Vec3};
+use glam::DVec2;
 
 use super::sanity::shared_edges;
-use super::{Element, Mesh};
+use super::Mesh;
+use crate::error::{Error, Result};
 use crate::scene::Scene;
 
 mod arrange;
-mod geom;
-mod shared;
+mod backproject;
+mod cdt;
+mod conform;
+mod project;
 #[cfg(test)]
 mod tests;
-mod triangulate;
+pub mod visibility;
 
 use arrange::Arrangement;
-use geom::Frame;
-
-/// Whether `q` lies in the convex polygon `poly` (counter-clockwise), up
-/// to `tol`.
-fn inside_convex(poly: &[DVec2], q: DVec2, tol: f64) -> bool {
-    (0..poly.len()).all(|k| {
-        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
-        let edge = b - a;
-        edge.perp_dot(q - a) >= -tol * edge.length().max(1e-300)
-    })
-}
+use project::{collect_segments, inside_convex, Frame};
+pub use visibility::cpu_blockers;
 
 /// Options of [`discontinuity_mesh`].
 #[derive(Debug, Clone, PartialEq)]
@@ -111,7 +105,7 @@ pub struct DiscontinuityStats {
     /// Steiner vertices where neither could (a thin trapezoid).
     pub sliver_flips: usize,
     /// Patches where refinement hit `max_triangles_per_patch`.
-    pub refinement_capped: usize,
+    pub subdivision_capped: usize,
     pub vertices: usize,
     pub triangles: usize,
     /// Projection and clipping (including the oracle's time).
@@ -120,89 +114,6 @@ pub struct DiscontinuityStats {
     pub arrangement_time: Duration,
     /// Constrained Delaunay triangulation and refinement.
     pub cdt_time: Duration,
-}
-
-/// The conservative CPU visibility oracle: for emitter patch `e`, its vertex
-/// `v` (or for `v >= m`, the midpoint of its edge `v - m`, m its vertex
-/// count) and target patch `t`, `None` when `v` is not strictly in front of
-/// `t`'s plane or `t` lies wholly behind the emitter's plane; else every
-/// patch other than `t` and `e` with a vertex strictly in front of `t`'s
-/// plane and strictly below `v`'s height above it, that is not wholly
-/// outside one side of the pyramid from `v` through `t`'s edges.
-pub fn cpu_blockers(scene: &Scene) -> impl Fn(usize, usize, usize) -> Option<Vec<usize>> + '_ {
-    let extent = f64::from(scene.extent());
-    let eps = if extent.is_finite() {
-        1e-7 * extent
-    } else {
-        0.0
-    };
-    move |e, vi, t| {
-        let emitter = scene.patches.get(e)?;
-        let target = scene.patches.get(t)?;
-        // Vertex vi, or the midpoint of edge vi - m.
-        let m = emitter.vertices.len();
-        let v = if vi < m {
-            emitter.vertices[vi].as_dvec3()
-        } else {
-            let k = vi.checked_sub(m).filter(|&k| k < m)?;
-            (0.5 * (emitter.vertices[k] + emitter.vertices[(k + 1) % m])).as_dvec3()
-        };
-        let n = target.normal.as_dvec3();
-        let t0 = target.vertices.first()?.as_dvec3();
-        let height = |p: DVec3| (p - t0).dot(n);
-        let sv = height(v);
-        if !(sv > eps) {
-            return None;
-        }
-        let ne = emitter.normal.as_dvec3();
-        let e0 = emitter.vertices.first()?.as_dvec3();
-        if !target
-            .vertices
-            .iter()
-            .any(|x| (x.as_dvec3() - e0).dot(ne) > eps)
-        {
-            return None;
-        }
-        // Side planes of the pyramid (v, target), pointing inwards.
-        let centroid = target.centroid().as_dvec3();
-        let m = target.vertices.len();
-        let sides: Vec<(DVec3, f64)> = (0..m)
-            .filter_map(|k| {
-                let a = target.vertices[k].as_dvec3();
-                let b = target.vertices[(k + 1) % m].as_dvec3();
-                let normal = (a - v).cross(b - v).try_normalize()?;
-                let normal = if (centroid - v).dot(normal) < 0.0 {
-                    -normal
-                } else {
-                    normal
-                };
-                Some((normal, normal.dot(v)))
-            })
-            .collect();
-        let list = scene
-            .patches
-            .iter()
-            .enumerate()
-            .filter(|&(b, patch)| {
-                if b == t || b == e {
-                    return false;
-                }
-                let between = patch.vertices.iter().any(|x| {
-                    let s = height(x.as_dvec3());
-                    s > eps && s < sv - eps
-                });
-                between
-                    && !sides.iter().any(|&(normal, off)| {
-                        patch
-                            .vertices
-                            .iter()
-                            .all(|x| normal.dot(x.as_dvec3()) - off < -eps)
-                    })
-            })
-            .map(|(b, _)| b)
-            .collect();
-        Some(list)
-    }
 }
 
 /// Meshes every patch of `scene` along the shadow boundaries cast from its
@@ -219,17 +130,19 @@ pub fn discontinuity_mesh(
     scene: &Scene,
     blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
     options: &DiscontinuityOptions,
-) -> Result<(Mesh, DiscontinuityStats), String> {
+) -> Result<(Mesh, DiscontinuityStats)> {
     if let Some(m) = options.max_edge {
         if !(m > 0.0 && m.is_finite()) {
-            return Err(format!("max_edge must be positive and finite, got {m}"));
+            return Err(Error::Invalid(format!(
+                "discontinuity meshing: max_edge must be positive and finite, got {m}"
+            )));
         }
     }
     if !(options.snap_relative > 0.0 && options.snap_relative < 0.01) {
-        return Err(format!(
-            "snap_relative must be in (0, 0.01), got {}",
+        return Err(Error::Invalid(format!(
+            "discontinuity meshing: snap_relative must be in (0, 0.01), got {}",
             options.snap_relative
-        ));
+        )));
     }
     let mut stats = DiscontinuityStats::default();
     let patches = &scene.patches;
@@ -295,10 +208,10 @@ pub fn discontinuity_mesh(
     // One set of boundary points per shared edge, used by every patch on it.
     let start = Instant::now();
     stats.shared_points +=
-        shared::cluster_shared_edges(&shared_edges(scene), &frames, &mut arrangements);
+        conform::cluster_shared_edges(&shared_edges(scene), &frames, &mut arrangements);
     stats.arrangement_time += start.elapsed();
 
-    // Pass 2: triangulate, refine, emit.
+    // Pass 2: triangulate, subdivide, back-project to 3D.
     let mut mesh = Mesh {
         vertices: Vec::new(),
         elements: Vec::new(),
@@ -309,37 +222,37 @@ pub fn discontinuity_mesh(
         let start = Instant::now();
         match (&frames[p], &arrangements[p]) {
             (Some(frame), Some(arr)) => {
-                let tri = triangulate_guarded(arr, &mut stats);
+                let tri = cdt::triangulate_guarded(arr, &mut stats);
                 match tri {
                     Some(mut tri) => {
                         stats.constraints_dropped += tri.dropped;
                         let sliver_tol = 0.3 * arr.snap;
                         stats.sliver_flips +=
-                            triangulate::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
+                            cdt::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
                         if let Some(m) = options.max_edge {
-                            if triangulate::refine(
+                            if cdt::subdivide(
                                 &mut tri,
                                 &arr.poly,
                                 arr.snap,
                                 f64::from(m) / frame.size,
                                 options.max_triangles_per_patch,
                             ) {
-                                stats.refinement_capped += 1;
+                                stats.subdivision_capped += 1;
                             }
                             stats.sliver_flips +=
-                                triangulate::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
+                                cdt::fix_slivers(&mut tri, &arr.poly, arr.snap, sliver_tol);
                         }
-                        emit(&mut mesh, p as u32, patch.normal, frame, &tri);
+                        backproject::back_project(&mut mesh, p as u32, patch.normal, frame, &tri);
                     }
                     None => {
                         stats.fallbacks += 1;
-                        fan(&mut mesh, p as u32, patch);
+                        backproject::fan(&mut mesh, p as u32, patch);
                     }
                 }
             }
             _ => {
                 stats.fallbacks += 1;
-                fan(&mut mesh, p as u32, patch);
+                backproject::fan(&mut mesh, p as u32, patch);
             }
         }
         stats.cdt_time += start.elapsed();
@@ -348,173 +261,4 @@ pub fn discontinuity_mesh(
     stats.vertices = mesh.vertices.len();
     stats.triangles = mesh.triangle_count();
     Ok((mesh, stats))
-}
-
-/// All VE, EV and contact segments of emitter `e` on target `t`, clipped.
-#[allow(clippy::too_many_arguments)]
-fn collect_segments(
-    scene: &Scene,
-    frame: &Frame,
-    e: usize,
-    t: usize,
-    blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
-    options: &DiscontinuityOptions,
-    extent: f64,
-    out: &mut Vec<(DVec2, DVec2)>,
-    stats: &mut DiscontinuityStats,
-) {
-    let patches = &scene.patches;
-    let emitter = &patches[e];
-    let ev: Vec<DVec3> = emitter.vertices.iter().map(|v| v.as_dvec3()).collect();
-    // Heights within this of the plane count as touching it.
-    let lo = (1e-5 * frame.size).max(1e-6 * extent);
-    let clip = |a: DVec2, b: DVec2, out: &mut Vec<(DVec2, DVec2)>| {
-        if let Some((a, b)) = geom::clip_to_convex(&frame.corners, a, b) {
-            if a.distance(b) > options.snap_relative {
-                out.push((a, b));
-            }
-        }
-    };
-    let mut per_vertex: Vec<Option<Vec<usize>>> = Vec::with_capacity(ev.len());
-    for (vi, &v) in ev.iter().enumerate() {
-        stats.pairs_considered += 1;
-        let list = blockers(e, vi, t).map(|mut l| {
-            l.retain(|&b| b != t && b != e && b < patches.len());
-            l.sort_unstable();
-            l.dedup();
-            l
-        });
-        match &list {
-            None => stats.pairs_invisible += 1,
-            Some(list) => {
-                for &b in list {
-                    stats.blockers_projected += 1;
-                    let bv = &patches[b].vertices;
-                    for k in 0..bv.len() {
-                        let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
-                        if let Some((a, b2)) = geom::project_segment(frame, v, p0, p1, lo) {
-                            clip(a, b2, out);
-                        }
-                    }
-                }
-            }
-        }
-        per_vertex.push(list);
-    }
-    let m = ev.len();
-    if options.ev_events && m >= 2 {
-        let mut union: Vec<usize> = Vec::new();
-        for i in 0..m {
-            let j = (i + 1) % m;
-            if m == 2 && i == 1 {
-                break;
-            }
-            union.clear();
-            for l in [&per_vertex[i], &per_vertex[j]].into_iter().flatten() {
-                union.extend_from_slice(l);
-            }
-            // And what the edge's midpoint sees (key m + i; asked of the
-            // oracle only where the ends see blockers).
-            if union.iter().any(|&b| b != t && b != e) {
-                if let Some(l) = blockers(e, m + i, t) {
-                    union.extend(
-                        l.into_iter()
-                            .filter(|&b| b != t && b != e && b < patches.len()),
-                    );
-                }
-            }
-            union.sort_unstable();
-            union.dedup();
-            for &b in &union {
-                for w in &patches[b].vertices {
-                    if let Some((a, b2)) = geom::project_ev(frame, w.as_dvec3(), ev[i], ev[j], lo) {
-                        clip(a, b2, out);
-                    }
-                }
-            }
-        }
-    }
-    if options.contact {
-        let mut all: Vec<usize> = per_vertex.iter().flatten().flatten().copied().collect();
-        all.sort_unstable();
-        all.dedup();
-        for b in all {
-            let bv = &patches[b].vertices;
-            for k in 0..bv.len() {
-                let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
-                if frame.height(p0).abs() <= lo && frame.height(p1).abs() <= lo {
-                    clip(frame.to_2d(p0), frame.to_2d(p1), out);
-                }
-            }
-        }
-    }
-}
-
-/// Triangulates, catching a panic in the CDT as a last resort (then the
-/// patch is triangulated without its interior constraints, or not at all).
-fn triangulate_guarded(
-    arr: &Arrangement,
-    stats: &mut DiscontinuityStats,
-) -> Option<triangulate::Triangulated> {
-    let attempt = |interior: bool| {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-            triangulate::triangulate(arr, interior)
-        }))
-        .ok()
-        .and_then(Result::ok)
-        .filter(|t| !t.triangles.is_empty())
-    };
-    if let Some(t) = attempt(true) {
-        return Some(t);
-    }
-    stats.fallbacks += 1;
-    attempt(false)
-}
-
-/// Appends a triangulated patch to the mesh (3D on the patch's plane;
-/// boundary vertices exactly on the boundary edges).
-fn emit(mesh: &mut Mesh, p: u32, normal: Vec3, frame: &Frame, tri: &triangulate::Triangulated) {
-    let base = mesh.vertices.len() as u32;
-    for (q, tag) in tri.points.iter().zip(&tri.tags) {
-        let x = match tag.edges().next() {
-            Some((k, 0.0)) => frame.corners3[k as usize],
-            Some((k, t)) => frame.edge_point(k as usize, t),
-            None => frame.to_3d(*q),
-        };
-        mesh.vertices.push(x.as_vec3());
-    }
-    for t in &tri.triangles {
-        let pts = t.map(|v| mesh.vertices[(base + v) as usize]);
-        let (area, centre) = super::uniform::polygon_area_centroid(&pts);
-        mesh.elements.push(Element {
-            corners: [base + t[0], base + t[1], base + t[2], 0],
-            corner_count: 3,
-            patch: p,
-            area,
-            centre,
-            normal,
-        });
-    }
-}
-
-/// A fan of the patch's corners (for patches the mesher cannot frame).
-fn fan(mesh: &mut Mesh, p: u32, patch: &crate::scene::Patch) {
-    let n = patch.vertices.len();
-    if n < 3 {
-        return;
-    }
-    let base = mesh.vertices.len() as u32;
-    mesh.vertices.extend_from_slice(&patch.vertices);
-    for k in 1..n - 1 {
-        let pts = [patch.vertices[0], patch.vertices[k], patch.vertices[k + 1]];
-        let (area, centre) = super::uniform::polygon_area_centroid(&pts);
-        mesh.elements.push(Element {
-            corners: [base, base + k as u32, base + k as u32 + 1, 0],
-            corner_count: 3,
-            patch: p,
-            area,
-            centre,
-            normal: patch.normal,
-        });
-    }
 }

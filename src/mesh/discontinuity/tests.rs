@@ -129,7 +129,7 @@ fn refinement_bounds_edges_and_stays_watertight() {
         };
         let (mesh, stats) = mesh_of(&scene, &options);
         check(&scene, &mesh);
-        assert_eq!(stats.refinement_capped, 0);
+        assert_eq!(stats.subdivision_capped, 0);
         for el in &mesh.elements {
             let c = el.corners();
             for k in 0..3 {
@@ -269,7 +269,7 @@ proptest! {
     fn random_blockers_never_break_the_mesh(
         blockers in proptest::collection::vec(triangle(), 1..6),
         duplicate in any::<bool>(),
-        refine in any::<bool>(),
+        subdivide in any::<bool>(),
     ) {
         let mut blockers = blockers;
         if duplicate {
@@ -279,12 +279,12 @@ proptest! {
         }
         let scene = random_scene(&blockers);
         let options = DiscontinuityOptions {
-            max_edge: refine.then_some(0.7),
+            max_edge: subdivide.then_some(0.7),
             ..Default::default()
         };
         let oracle = cpu_blockers(&scene);
-        let (mesh, _) = discontinuity_mesh(&scene, &oracle, &options).map_err(TestCaseError::fail)?;
-        mesh.sanity_check_watertight(&scene).map_err(TestCaseError::fail)?;
+        let (mesh, _) = discontinuity_mesh(&scene, &oracle, &options).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        mesh.sanity_check_watertight(&scene).map_err(|e| TestCaseError::fail(e.to_string()))?;
     }
 }
 

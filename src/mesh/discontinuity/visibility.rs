@@ -5,7 +5,7 @@
 use std::collections::HashMap;
 use std::sync::Arc;
 
-use glam::{Mat4, Vec3};
+use glam::{DVec3, Mat4, Vec3};
 
 use crate::error::Result;
 use crate::geom::frustum::frustum;
@@ -186,4 +186,87 @@ pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Resul
     table.insert_seen(keys, pass.run(&tiles)?);
     table.times = pass.times.clone();
     Ok(table)
+}
+
+/// The conservative CPU visibility oracle: for emitter patch `e`, its vertex
+/// `v` (or for `v >= m`, the midpoint of its edge `v - m`, m its vertex
+/// count) and target patch `t`, `None` when `v` is not strictly in front of
+/// `t`'s plane or `t` lies wholly behind the emitter's plane; else every
+/// patch other than `t` and `e` with a vertex strictly in front of `t`'s
+/// plane and strictly below `v`'s height above it, that is not wholly
+/// outside one side of the pyramid from `v` through `t`'s edges.
+pub fn cpu_blockers(scene: &Scene) -> impl Fn(usize, usize, usize) -> Option<Vec<usize>> + '_ {
+    let extent = f64::from(scene.extent());
+    let eps = if extent.is_finite() {
+        1e-7 * extent
+    } else {
+        0.0
+    };
+    move |e, vi, t| {
+        let emitter = scene.patches.get(e)?;
+        let target = scene.patches.get(t)?;
+        // Vertex vi, or the midpoint of edge vi - m.
+        let m = emitter.vertices.len();
+        let v = if vi < m {
+            emitter.vertices[vi].as_dvec3()
+        } else {
+            let k = vi.checked_sub(m).filter(|&k| k < m)?;
+            (0.5 * (emitter.vertices[k] + emitter.vertices[(k + 1) % m])).as_dvec3()
+        };
+        let n = target.normal.as_dvec3();
+        let t0 = target.vertices.first()?.as_dvec3();
+        let height = |p: DVec3| (p - t0).dot(n);
+        let sv = height(v);
+        if !(sv > eps) {
+            return None;
+        }
+        let ne = emitter.normal.as_dvec3();
+        let e0 = emitter.vertices.first()?.as_dvec3();
+        if !target
+            .vertices
+            .iter()
+            .any(|x| (x.as_dvec3() - e0).dot(ne) > eps)
+        {
+            return None;
+        }
+        // Side planes of the pyramid (v, target), pointing inwards.
+        let centroid = target.centroid().as_dvec3();
+        let m = target.vertices.len();
+        let sides: Vec<(DVec3, f64)> = (0..m)
+            .filter_map(|k| {
+                let a = target.vertices[k].as_dvec3();
+                let b = target.vertices[(k + 1) % m].as_dvec3();
+                let normal = (a - v).cross(b - v).try_normalize()?;
+                let normal = if (centroid - v).dot(normal) < 0.0 {
+                    -normal
+                } else {
+                    normal
+                };
+                Some((normal, normal.dot(v)))
+            })
+            .collect();
+        let list = scene
+            .patches
+            .iter()
+            .enumerate()
+            .filter(|&(b, patch)| {
+                if b == t || b == e {
+                    return false;
+                }
+                let between = patch.vertices.iter().any(|x| {
+                    let s = height(x.as_dvec3());
+                    s > eps && s < sv - eps
+                });
+                between
+                    && !sides.iter().any(|&(normal, off)| {
+                        patch
+                            .vertices
+                            .iter()
+                            .all(|x| normal.dot(x.as_dvec3()) - off < -eps)
+                    })
+            })
+            .map(|(b, _)| b)
+            .collect();
+        Some(list)
+    }
 }

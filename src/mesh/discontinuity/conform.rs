@@ -22,7 +22,7 @@ use std::collections::HashMap;
 use glam::DVec3;
 
 use super::arrange::Arrangement;
-use super::geom::Frame;
+use super::project::Frame;
 use crate::mesh::sanity::SharedEdge;
 
 /// One patch edge of a group.

@@ -5,7 +5,8 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::scene::Patch;
+use super::{DiscontinuityOptions, DiscontinuityStats};
+use crate::scene::{Patch, Scene};
 
 /// A target patch's plane and 2D frame.
 #[derive(Debug, Clone)]
@@ -237,6 +238,116 @@ pub(crate) fn segment_distance(p: DVec2, a: DVec2, b: DVec2) -> (f64, f64) {
         0.0
     };
     ((a + d * t).distance(p), t)
+}
+
+/// Whether `q` lies in the convex polygon `poly` (counter-clockwise), up
+/// to `tol`.
+pub(super) fn inside_convex(poly: &[DVec2], q: DVec2, tol: f64) -> bool {
+    (0..poly.len()).all(|k| {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let edge = b - a;
+        edge.perp_dot(q - a) >= -tol * edge.length().max(1e-300)
+    })
+}
+
+/// All VE, EV and contact segments of emitter `e` on target `t`, clipped.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn collect_segments(
+    scene: &Scene,
+    frame: &Frame,
+    e: usize,
+    t: usize,
+    blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
+    options: &DiscontinuityOptions,
+    extent: f64,
+    out: &mut Vec<(DVec2, DVec2)>,
+    stats: &mut DiscontinuityStats,
+) {
+    let patches = &scene.patches;
+    let emitter = &patches[e];
+    let ev: Vec<DVec3> = emitter.vertices.iter().map(|v| v.as_dvec3()).collect();
+    // Heights within this of the plane count as touching it.
+    let lo = (1e-5 * frame.size).max(1e-6 * extent);
+    let clip = |a: DVec2, b: DVec2, out: &mut Vec<(DVec2, DVec2)>| {
+        if let Some((a, b)) = clip_to_convex(&frame.corners, a, b) {
+            if a.distance(b) > options.snap_relative {
+                out.push((a, b));
+            }
+        }
+    };
+    let mut per_vertex: Vec<Option<Vec<usize>>> = Vec::with_capacity(ev.len());
+    for (vi, &v) in ev.iter().enumerate() {
+        stats.pairs_considered += 1;
+        let list = blockers(e, vi, t).map(|mut l| {
+            l.retain(|&b| b != t && b != e && b < patches.len());
+            l.sort_unstable();
+            l.dedup();
+            l
+        });
+        match &list {
+            None => stats.pairs_invisible += 1,
+            Some(list) => {
+                for &b in list {
+                    stats.blockers_projected += 1;
+                    let bv = &patches[b].vertices;
+                    for k in 0..bv.len() {
+                        let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
+                        if let Some((a, b2)) = project_segment(frame, v, p0, p1, lo) {
+                            clip(a, b2, out);
+                        }
+                    }
+                }
+            }
+        }
+        per_vertex.push(list);
+    }
+    let m = ev.len();
+    if options.ev_events && m >= 2 {
+        let mut union: Vec<usize> = Vec::new();
+        for i in 0..m {
+            let j = (i + 1) % m;
+            if m == 2 && i == 1 {
+                break;
+            }
+            union.clear();
+            for l in [&per_vertex[i], &per_vertex[j]].into_iter().flatten() {
+                union.extend_from_slice(l);
+            }
+            // And what the edge's midpoint sees (key m + i; asked of the
+            // oracle only where the ends see blockers).
+            if union.iter().any(|&b| b != t && b != e) {
+                if let Some(l) = blockers(e, m + i, t) {
+                    union.extend(
+                        l.into_iter()
+                            .filter(|&b| b != t && b != e && b < patches.len()),
+                    );
+                }
+            }
+            union.sort_unstable();
+            union.dedup();
+            for &b in &union {
+                for w in &patches[b].vertices {
+                    if let Some((a, b2)) = project_ev(frame, w.as_dvec3(), ev[i], ev[j], lo) {
+                        clip(a, b2, out);
+                    }
+                }
+            }
+        }
+    }
+    if options.contact {
+        let mut all: Vec<usize> = per_vertex.iter().flatten().flatten().copied().collect();
+        all.sort_unstable();
+        all.dedup();
+        for b in all {
+            let bv = &patches[b].vertices;
+            for k in 0..bv.len() {
+                let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
+                if frame.height(p0).abs() <= lo && frame.height(p1).abs() <= lo {
+                    clip(frame.to_2d(p0), frame.to_2d(p1), out);
+                }
+            }
+        }
+    }
 }
 
 #[cfg(test)]

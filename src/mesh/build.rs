@@ -7,9 +7,9 @@ use std::time::{Duration, Instant};
 
 use glam::Vec3;
 
-use crate::blockers::{gpu_blockers, BlockerTable};
 use crate::error::{Error, Result};
 use crate::gpu::Device;
+use crate::mesh::discontinuity::visibility::{gpu_blockers, BlockerTable};
 use crate::mesh::discontinuity::{discontinuity_mesh, DiscontinuityOptions, DiscontinuityStats};
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
@@ -21,7 +21,7 @@ pub enum Mesher {
     Uniform,
     /// Shadow boundaries from every emitter vertex and edge, then split to
     /// `max_edge` if refinement is on (thesis ch. 4, fig. 23).
-    Discontinuity { refine: bool },
+    Discontinuity { subdivide: bool },
 }
 
 /// How to mesh.
@@ -102,7 +102,7 @@ impl<'a> MeshBuilder<'a> {
                 report.stages.push(("uniform", t.elapsed()));
                 mesh
             }
-            Mesher::Discontinuity { refine } => {
+            Mesher::Discontinuity { subdivide } => {
                 if self.table.is_none() {
                     let t = Instant::now();
                     self.table = Some(gpu_blockers(self.device, scene, settings.dm_res)?);
@@ -115,13 +115,12 @@ impl<'a> MeshBuilder<'a> {
                 report.pairs = table.pairs;
                 report.tiles = table.tiles;
                 let options = DiscontinuityOptions {
-                    max_edge: refine.then_some(settings.max_edge),
+                    max_edge: subdivide.then_some(settings.max_edge),
                     extra_points: extra_points.to_vec(),
                     ..Default::default()
                 };
                 let oracle = |e: usize, k: usize, t: usize| table.get(e, k, t);
-                let (mesh, stats) = discontinuity_mesh(scene, &oracle, &options)
-                    .map_err(|e| Error::Invalid(format!("discontinuity meshing failed: {e}")))?;
+                let (mesh, stats) = discontinuity_mesh(scene, &oracle, &options)?;
                 report.stages.push(("projection", stats.projection_time));
                 report.stages.push(("arrangement", stats.arrangement_time));
                 report.stages.push(("CDT", stats.cdt_time));
@@ -136,9 +135,8 @@ impl<'a> MeshBuilder<'a> {
 /// The mesh checks the design asks for: `sanity_check` for every mesh, plus
 /// no T-junctions across patches for discontinuity meshes.
 pub fn check_mesh(mesh: &Mesh, scene: &Scene, mesher: Mesher) -> Result<()> {
-    let checked = match mesher {
+    match mesher {
         Mesher::Uniform => mesh.sanity_check(scene),
         Mesher::Discontinuity { .. } => mesh.sanity_check_watertight(scene),
-    };
-    checked.map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))
+    }
 }

@@ -4,6 +4,8 @@
 use std::collections::HashMap;
 
 use glam::DVec2;
+
+use super::DiscontinuityStats;
 use spade::handles::FixedVertexHandle;
 use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
 
@@ -133,7 +135,7 @@ pub(crate) fn triangulate(arr: &Arrangement, interior: bool) -> Result<Triangula
 /// stays conforming and angles stay bounded below. Boundary edges are never
 /// split (the caller subdivided them beforehand, identically on every patch
 /// that shares them). Returns whether `max_triangles` stopped it.
-pub(crate) fn refine(
+pub(crate) fn subdivide(
     tri: &mut Triangulated,
     poly: &[DVec2],
     snap: f64,
@@ -143,7 +145,7 @@ pub(crate) fn refine(
     if !(max_len > 0.0) {
         return false;
     }
-    let mut r = Refiner::take(tri, poly, snap, max_len * (1.0 + 1e-9));
+    let mut r = Editor::take(tri, poly, snap, max_len * (1.0 + 1e-9));
     let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
     let mut capped = false;
     while let Some(t) = stack.pop() {
@@ -207,7 +209,7 @@ pub(crate) fn refine(
 /// flip follows. Vertices left unused are dropped. Returns the number of
 /// flips, collapses and Steiner vertices.
 pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol: f64) -> usize {
-    let mut r = Refiner::take(tri, poly, snap, f64::INFINITY);
+    let mut r = Editor::take(tri, poly, snap, f64::INFINITY);
     let mut flips = 0;
     let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
     let budget = 4 * r.tris.len() + 16;
@@ -233,7 +235,7 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             if off >= tol || along <= tol || along >= len - tol {
                 continue;
             }
-            let e = Refiner::key(a, b);
+            let e = Editor::key(a, b);
             if r.is_boundary(e) {
                 continue;
             }
@@ -336,7 +338,7 @@ fn min_altitude([p, q, s]: [DVec2; 3]) -> f64 {
     }
 }
 
-struct Refiner<'a> {
+struct Editor<'a> {
     limit: f64,
     poly: &'a [DVec2],
     snap: f64,
@@ -348,7 +350,7 @@ struct Refiner<'a> {
     edges: HashMap<[u32; 2], [u32; 2]>,
 }
 
-impl<'a> Refiner<'a> {
+impl<'a> Editor<'a> {
     /// The triangles still in the mesh.
     fn live_triangles(&self) -> Vec<[u32; 3]> {
         self.tris
@@ -363,7 +365,7 @@ impl<'a> Refiner<'a> {
     /// links every triangle to its edges.
     fn take(tri: &mut Triangulated, poly: &'a [DVec2], snap: f64, limit: f64) -> Self {
         let tris = std::mem::take(&mut tri.triangles);
-        let mut r = Refiner {
+        let mut r = Editor {
             limit,
             poly,
             snap,
@@ -565,7 +567,7 @@ impl<'a> Refiner<'a> {
         let m = (self.points[e[0] as usize] + self.points[e[1] as usize]) * 0.5;
         let n = self.poly.len();
         (0..n).any(|k| {
-            super::geom::segment_distance(m, self.poly[k], self.poly[(k + 1) % n]).0 <= self.snap
+            super::project::segment_distance(m, self.poly[k], self.poly[(k + 1) % n]).0 <= self.snap
         })
     }
 
@@ -678,6 +680,25 @@ impl<'a> Refiner<'a> {
         }
         children
     }
+}
+
+/// Triangulates, catching a panic in the CDT as a last resort (then the
+/// patch is triangulated without its interior constraints, or not at all).
+pub(super) fn triangulate_guarded(
+    arr: &Arrangement,
+    stats: &mut DiscontinuityStats,
+) -> Option<Triangulated> {
+    let attempt = |interior: bool| {
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| triangulate(arr, interior)))
+            .ok()
+            .and_then(Result::ok)
+            .filter(|t| !t.triangles.is_empty())
+    };
+    if let Some(t) = attempt(true) {
+        return Some(t);
+    }
+    stats.fallbacks += 1;
+    attempt(false)
 }
 
 #[cfg(test)]
