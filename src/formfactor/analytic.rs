@@ -186,7 +186,7 @@ pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize)
 /// the shooter's patch and elements lying in the shooter's plane get 0, and
 /// so does everything when the shooter has no area. Like the ray tracer,
 /// each vertex is evaluated a hair inside its patch
-/// (`raytrace::VERTEX_INSET`), so that a vertex on an edge in the
+/// (`receivers::VERTEX_INSET`), so that a vertex on an edge in the
 /// shooter's plane gets the limit from inside its patch rather than 0.
 ///
 /// # Panics
@@ -216,7 +216,7 @@ pub fn element_and_vertex_form_factors_analytic(
             vec![0.0; mesh.vertices.len()],
         );
     }
-    let (points, normals, patches) = crate::formfactor::raytrace::vertex_frames(scene, mesh);
+    let (points, normals, patches) = crate::formfactor::receivers::vertex_frames(scene, mesh);
     let per_vertex: Vec<f64> = (0..mesh.vertices.len())
         .into_par_iter()
         .map(|v| {

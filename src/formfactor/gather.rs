@@ -11,7 +11,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::raytrace::{point_form_factor, Estimator, Occluders, Pcg32, Shooter};
+use super::raytrace::{point_form_factor, Estimator, Occluders};
+use super::sampling::{Pcg32, Shooter};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 

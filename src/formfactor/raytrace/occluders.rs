@@ -1,0 +1,168 @@
+//! Visibility for ray-traced form factors: a BVH over the scene's patches
+//! (fan-triangulated; every patch blocks from both sides), queried with
+//! segments. The choice of BVH is measured in `raytrace/mod.rs`.
+
+use std::time::Duration;
+
+use glam::Vec3;
+use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+
+use crate::scene::Scene;
+
+/// A triangle of an occluding patch: `v0 + u e1 + v e2`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Tri {
+    pub(crate) v0: Vec3,
+    pub(crate) e1: Vec3,
+    pub(crate) e2: Vec3,
+    pub(crate) patch: u32,
+}
+
+/// The scene's patches as occluders, in a compressed wide BVH (`obvhs`
+/// CWBVH8, PLOC build, any-hit traversal).
+#[derive(Debug, Clone)]
+pub struct Occluders {
+    /// `None` for a scene without triangles.
+    pub(crate) bvh: Option<CwBvh>,
+    /// Triangles in the BVH's primitive order.
+    pub(crate) tris: Vec<Tri>,
+    /// Distance from either end of a segment within which hits are ignored.
+    pub(crate) eps: f32,
+}
+
+impl Occluders {
+    /// Builds the hierarchy over every patch of `scene` (fan triangulated).
+    pub fn new(scene: &Scene) -> Self {
+        let mut tris = Vec::new();
+        for (p, patch) in scene.patches.iter().enumerate() {
+            let v = &patch.vertices;
+            for k in 1..v.len().saturating_sub(1) {
+                tris.push(Tri {
+                    v0: v[0],
+                    e1: v[k] - v[0],
+                    e2: v[k + 1] - v[0],
+                    patch: p as u32,
+                });
+            }
+        }
+        let extent = scene.extent();
+        let eps = if extent.is_finite() && extent > 0.0 {
+            1e-5 * extent
+        } else {
+            1e-6
+        };
+        if tris.is_empty() {
+            return Occluders {
+                bvh: None,
+                tris,
+                eps,
+            };
+        }
+        let shapes: Vec<Triangle> = tris
+            .iter()
+            .map(|t| Triangle {
+                v0: t.v0.to_array().into(),
+                v1: (t.v0 + t.e1).to_array().into(),
+                v2: (t.v0 + t.e2).to_array().into(),
+            })
+            .collect();
+        let mut build_time = Duration::ZERO;
+        let bvh = build_cwbvh_from_tris(&shapes, BvhBuildParams::medium_build(), &mut build_time);
+        let tris = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| tris[i as usize])
+            .collect();
+        Occluders {
+            bvh: Some(bvh),
+            tris,
+            eps,
+        }
+    }
+
+    /// Number of triangles in the hierarchy.
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// The distance from either end of a segment within which hits are
+    /// ignored (`1e-5` of the scene's extent).
+    pub fn epsilon(&self) -> f32 {
+        self.eps
+    }
+
+    /// Whether the segment from `a` to `b` is unblocked. Triangles of the
+    /// patches in `skip` are ignored (pass `u32::MAX` for none), and so are
+    /// hits within [`Occluders::epsilon`] of either end.
+    pub fn visible(&self, a: Vec3, b: Vec3, skip: [u32; 2]) -> bool {
+        let Some(bvh) = &self.bvh else {
+            return true;
+        };
+        let d = b - a;
+        let len = d.length();
+        if len.is_nan() || len <= 2.0 * self.eps {
+            return true;
+        }
+        let tmin = self.eps / len;
+        let tmax = 1.0 - tmin;
+        let ray = Ray::new(a.to_array().into(), d.to_array().into(), tmin, tmax);
+        bvh.ray_traverse_miss(ray, |_, id| {
+            let tri = &self.tris[id];
+            if tri.patch != skip[0] && tri.patch != skip[1] && hits(tri, a, d, tmin, tmax) {
+                tmin // any value below tmax ends the traversal: blocked
+            } else {
+                f32::INFINITY
+            }
+        })
+    }
+}
+
+impl Occluders {
+    /// The first patch that the ray `a + t d`, t > 0, meets: `(t, patch)`.
+    pub fn first_hit(&self, a: Vec3, d: Vec3) -> Option<(f32, u32)> {
+        let bvh = self.bvh.as_ref()?;
+        if !d.is_finite() || d.length_squared() == 0.0 {
+            return None;
+        }
+        let ray = Ray::new(a.to_array().into(), d.to_array().into(), 0.0, f32::INFINITY);
+        let mut hit = RayHit::none();
+        let found = bvh.ray_traverse(ray, &mut hit, |ray, id| {
+            hit_distance(&self.tris[id], a, d, 0.0, ray.tmax).unwrap_or(f32::INFINITY)
+        });
+        found.then(|| (hit.t, self.tris[hit.primitive_id as usize].patch))
+    }
+}
+
+/// Moller-Trumbore, edges inclusive, `t` strictly inside (tmin, tmax).
+#[inline]
+pub(crate) fn hits(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
+    hit_distance(tri, a, d, tmin, tmax).is_some()
+}
+
+/// The ray parameter `t` where `a + t d` meets the triangle (edges
+/// inclusive), if it lies strictly inside (tmin, tmax).
+#[inline]
+fn hit_distance(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+    let p = d.cross(tri.e2);
+    let det = tri.e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None; // parallel to the triangle's plane
+    }
+    let inv = 1.0 / det;
+    let s = a - tri.v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(tri.e1);
+    let v = d.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    let t = tri.e2.dot(q) * inv;
+    (t > tmin && t < tmax).then_some(t)
+}
