@@ -1,6 +1,6 @@
 //! The main job as a library call: load, mesh, solve, render, write. The
-//! CLI (`main.rs`) parses arguments into a [`RenderJob`] and prints the
-//! [`RenderReport`]; tests call [`run_render`] directly.
+//! CLI (`main.rs`) parses arguments into a [`Job`] and prints the
+//! [`Report`]; tests call [`run`] directly.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -14,14 +14,14 @@ use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
-use crate::refine::{estimated_error, interpolation_gaps, refinement_points, RefineSettings};
 use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
+use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::{solve, FormFactorMethod, Progress, Solution, SolveSettings};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
-pub struct RenderJob {
+pub struct Job {
     /// A path to an OBJ file or the name of a built-in scene.
     pub scene: String,
     /// The image to write (`.png`, `.hdr`, `.exr`); `None`: `NAME.png` here.
@@ -56,9 +56,9 @@ pub struct RenderJob {
     pub exposure: Option<f32>,
 }
 
-impl RenderJob {
+impl Job {
     pub fn new(scene: impl Into<String>) -> Self {
-        RenderJob {
+        Job {
             scene: scene.into(),
             output: None,
             export: None,
@@ -102,7 +102,7 @@ impl CameraOverride {
 }
 
 /// What a run did, for the summary and for tests.
-pub struct RenderReport {
+pub struct Report {
     pub device: String,
     pub device_kind: &'static str,
     pub scene: Scene,
@@ -168,9 +168,9 @@ pub fn check_output_path(path: &Path, allowed: &[&str]) -> Result<()> {
     Ok(())
 }
 
-impl RenderReport {
+impl Report {
     /// The run as JSON: settings, results and timings (`--report`).
-    pub fn to_json(&self, job: &RenderJob) -> serde_json::Value {
+    pub fn to_json(&self, job: &Job) -> serde_json::Value {
         let s = &self.solution;
         let passes: Vec<_> = self
             .gpu_times
@@ -252,11 +252,11 @@ pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
 
 /// Runs the whole job. `on_progress` sees every shot and may return false
 /// to stop early (the best solution so far is still rendered and written).
-pub fn run_render(
-    job: &RenderJob,
+pub fn run(
+    job: &Job,
     device: Option<Arc<Device>>,
     on_progress: impl FnMut(&Progress) -> bool,
-) -> Result<RenderReport> {
+) -> Result<Report> {
     let mut wall = Vec::new();
     let t = Instant::now();
     let scene = scene::load_scene_arg(&job.scene)?;
@@ -290,7 +290,7 @@ pub fn run_render(
         dm_res: job.dm_res,
     };
     let mut builder = MeshBuilder::new(&device, &scene, settings)?;
-    let (mut mesh, mut mesh_report) = builder.build(&[])?;
+    let (mesh, mesh_report) = builder.build(&[])?;
     if job.check_mesh {
         check_mesh(&mesh, &scene, job.mesher)?;
     }
@@ -298,12 +298,9 @@ pub fn run_render(
 
     let t = Instant::now();
     let mut on_progress = on_progress;
-    let mut solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
+    let solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
-    let mut adaptive_elements = vec![mesh.elements.len()];
-    let mut adaptive_errors = Vec::new();
-    let mut extra_points = Vec::new();
-    let refine = RefineSettings {
+    let adaptive = AdaptiveSettings {
         tolerance: job.tolerance,
         max_elements: job.max_elements,
         min_edge: max_edge / 64.0,
@@ -315,32 +312,29 @@ pub fn run_render(
             reflectors: 1,
         },
     };
-    for pass in 0..=job.adaptive {
-        if job.adaptive == 0 || solution.interrupted {
-            break;
-        }
-        let t = Instant::now();
-        let b = crate::render::vertex_radiosity(&mesh, &solution);
-        let gaps = interpolation_gaps(&scene, &mesh, &solution.radiosity, &b, refine.rays);
-        adaptive_errors.push(estimated_error(&scene, &mesh, &b, &gaps));
-        let points = refinement_points(&scene, &mesh, &b, &gaps, &refine);
-        add_wall(&mut wall, "adaptive estimate", t.elapsed().as_secs_f64());
-        if pass == job.adaptive || points.is_empty() {
-            break;
-        }
-        let t = Instant::now();
-        extra_points.extend(points);
-        let (refined, report) = builder.build(&extra_points)?;
-        if job.check_mesh {
-            check_mesh(&refined, &scene, job.mesher)?;
-        }
-        add_wall(&mut wall, "adaptive mesh", t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        solution = solve(&device, &scene, &refined, &job.solve, &mut on_progress)?;
-        add_wall(&mut wall, "adaptive solve", t.elapsed().as_secs_f64());
-        adaptive_elements.push(refined.elements.len());
-        (mesh, mesh_report) = (refined, report);
+    let (solved, history) = refine_and_resolve(
+        &device,
+        &scene,
+        &mut builder,
+        Solved {
+            mesh,
+            report: mesh_report,
+            solution,
+        },
+        job.adaptive,
+        &adaptive,
+        &job.solve,
+        job.check_mesh,
+        &mut on_progress,
+    )?;
+    for &(name, secs) in &history.wall {
+        add_wall(&mut wall, name, secs);
     }
+    let Solved {
+        mesh,
+        report: mesh_report,
+        solution,
+    } = solved;
     let mut warnings = Vec::new();
     let received: f64 = mesh
         .elements
@@ -360,11 +354,10 @@ pub fn run_render(
     let mut gpu_times = solution.times.clone();
     // An unfinished solution is shown with the ambient term standing in
     // for the light not yet shot; the exported mesh keeps the solved values.
-    let mut shown = crate::render::vertex_radiosity(&mesh, &solution);
-    let ambient = (job.ambient && !solution.converged)
-        .then(|| crate::render::ambient_term(&scene, &mesh, &solution.unshot));
+    let mut shown = solution.vertex_radiosity(&mesh);
+    let ambient = (job.ambient && !solution.converged).then(|| solution.ambient(&scene, &mesh));
     if let Some(a) = ambient {
-        crate::render::add_ambient(&scene, &mesh, &mut shown, a);
+        crate::solve::solution::add_ambient(&scene, &mesh, &mut shown, a);
     }
     let radiance = crate::render::radiance_of(shown);
     let image = render_image(
@@ -383,21 +376,21 @@ pub fn run_render(
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
     save_image(&image, &output, Some(exposure))?;
     if let Some(export) = &job.export {
-        let vertex_radiosity = crate::render::vertex_radiosity(&mesh, &solution);
+        let vertex_radiosity = solution.vertex_radiosity(&mesh);
         export_mesh(export, &mesh, &vertex_radiosity, exposure)?;
     }
     wall.push(("write", t.elapsed().as_secs_f64()));
     device.check_validation()?;
 
-    Ok(RenderReport {
+    Ok(Report {
         device: device.info.name.clone(),
         device_kind: device.info.kind,
         scene,
         mesh,
         max_edge,
         mesh_report,
-        adaptive_elements,
-        adaptive_errors,
+        adaptive_elements: history.elements,
+        adaptive_errors: history.errors,
         solution,
         image,
         exposure,
@@ -408,12 +401,4 @@ pub fn run_render(
         wall,
         gpu_times,
     })
-}
-
-/// Adds `seconds` to the stage `name`, summing the stages of repeated passes.
-fn add_wall(wall: &mut Vec<(&'static str, f64)>, name: &'static str, seconds: f64) {
-    match wall.iter_mut().find(|(n, _)| *n == name) {
-        Some((_, total)) => *total += seconds,
-        None => wall.push((name, seconds)),
-    }
 }

@@ -12,7 +12,6 @@ pub mod geom;
 pub mod gpu;
 pub mod mesh;
 pub mod output;
-pub mod refine;
 pub mod render;
 pub mod scene;
 pub mod solve;

@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 
-use vkrad::app::{run_render, CameraOverride, RenderJob, RenderReport};
+use vkrad::app::{run, CameraOverride, Job, Report};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshReport, MeshSettings, Mesher};
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
@@ -334,7 +334,7 @@ fn devices() -> Result<()> {
 
 fn render(args: RenderArgs) -> Result<()> {
     let scene = args.scene.clone().context("a scene is required")?;
-    let mut job = RenderJob::new(scene);
+    let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
     job.device = DeviceOptions {
@@ -373,7 +373,7 @@ fn render(args: RenderArgs) -> Result<()> {
         !args.quiet && std::io::stderr().is_terminal(),
         args.converge,
     );
-    let report = run_render(&job, None, |p| {
+    let report = run(&job, None, |p| {
         progress.update(p);
         !INTERRUPTED.load(Ordering::SeqCst)
     })?;
@@ -470,7 +470,7 @@ impl ProgressLine {
     }
 }
 
-fn print_summary(r: &RenderReport, profile: bool) {
+fn print_summary(r: &Report, profile: bool) {
     let s = &r.solution;
     let emitters = r
         .scene

@@ -65,53 +65,9 @@ pub fn camera_view_proj(camera: &Camera, aspect: f32, scene_extent: f32) -> Resu
     Ok(perspective(camera.fov_y_deg.to_radians(), aspect, near) * view)
 }
 
-/// Per-vertex radiosity for display: the solver's own vertex values where
-/// it has them (ray tracing), else the area-weighted element average.
-pub fn vertex_radiosity(mesh: &Mesh, solution: &crate::solve::Solution) -> Vec<[f32; 3]> {
-    match &solution.vertex_radiosity {
-        Some(v) => v.clone(),
-        None => mesh.vertex_values(&solution.radiosity),
-    }
-}
-
-/// The ambient term of an unfinished solution (Cohen, Chen, Wallace and
-/// Greenberg 1988): the unshot power spread evenly over the scene and
-/// interreflected with the area-averaged reflectance,
-/// ambient = sum(B_unshot A) / sum(A) / (1 - rho_avg), per channel. Added
-/// as rho * ambient to what a preview shows, it stands in for the light
-/// still to be shot.
-pub fn ambient_term(scene: &Scene, mesh: &Mesh, unshot: &[[f32; 3]]) -> Vec3 {
-    let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
-    for (e, u) in mesh.elements.iter().zip(unshot) {
-        power += Vec3::from(*u) * e.area;
-        reflected += scene.patch_material(e.patch).reflectance * e.area;
-        area += e.area;
-    }
-    if area <= 0.0 {
-        return Vec3::ZERO;
-    }
-    let rho = (reflected / area).min(Vec3::splat(0.999));
-    power / area / (Vec3::ONE - rho)
-}
-
-/// Adds `rho * ambient` to every vertex's radiosity (vertices belong to one
-/// patch, whose reflectance they take).
-pub fn add_ambient(scene: &Scene, mesh: &Mesh, radiosity: &mut [[f32; 3]], ambient: Vec3) {
-    let mut done = vec![false; radiosity.len()];
-    for e in &mesh.elements {
-        let rho = scene.patch_material(e.patch).reflectance;
-        for &v in e.corners() {
-            if !std::mem::replace(&mut done[v as usize], true) {
-                radiosity[v as usize] =
-                    (Vec3::from(radiosity[v as usize]) + rho * ambient).to_array();
-            }
-        }
-    }
-}
-
 /// Per-vertex radiance L = B / pi for Gouraud display.
 pub fn vertex_radiance(mesh: &Mesh, solution: &crate::solve::Solution) -> Vec<[f32; 3]> {
-    radiance_of(vertex_radiosity(mesh, solution))
+    radiance_of(solution.vertex_radiosity(mesh))
 }
 
 /// Radiance L = B / pi of per-vertex radiosities.

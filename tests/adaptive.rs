@@ -8,7 +8,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use vkrad::app::{run_render, RenderJob};
+use vkrad::app::{run, Job};
 use vkrad::bench::meshers::gathered_reference;
 use vkrad::bench::relative_rms_error_where;
 use vkrad::formfactor::gather::{GatherRays, Gatherer};
@@ -107,7 +107,7 @@ fn adaptive_discontinuity_mesh_beats_uniform_at_equal_element_count() {
     let (reference, _) = gathered_reference(&device, &scene, true).unwrap();
     let out = failure_dir();
     let render = |mesher: Mesher, max_edge: f32, budget: Option<usize>| {
-        let mut job = RenderJob::new("simple");
+        let mut job = Job::new("simple");
         job.output = Some(out.join(format!("{mesher:?}.hdr").replace([' ', '{', '}', ':'], "")));
         job.size = (120, 80);
         job.mesher = mesher;
@@ -118,7 +118,7 @@ fn adaptive_discontinuity_mesh_beats_uniform_at_equal_element_count() {
             job.tolerance = 0.0;
             job.max_elements = Some(n);
         }
-        run_render(&job, Some(device.clone()), |_| true).unwrap()
+        run(&job, Some(device.clone()), |_| true).unwrap()
     };
     let uniform = render(Mesher::Uniform, scene.extent() / 16.0, None);
     let n = uniform.mesh.elements.len();

@@ -103,12 +103,12 @@ fn closed_room_energy_balance_rho_0_8() {
 /// ambient is nearer the converged mean than the partial solution alone.
 #[test]
 fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
-    use vkrad::app::{run_render, RenderJob};
+    use vkrad::app::{run, Job};
     let device = device();
     let dir = std::env::temp_dir().join(format!("vkrad-ambient-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mean = |max_shots: usize, ambient: bool| {
-        let mut job = RenderJob::new("cornell");
+        let mut job = Job::new("cornell");
         job.output = Some(dir.join("out.hdr"));
         job.size = (48, 48);
         job.max_edge = Some(140.0);
@@ -119,7 +119,7 @@ fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
             max_shots,
             ..Default::default()
         };
-        let r = run_render(&job, Some(device.clone()), |_| true).unwrap();
+        let r = run(&job, Some(device.clone()), |_| true).unwrap();
         let sum: f64 = r
             .image
             .pixels

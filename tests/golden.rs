@@ -8,7 +8,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use vkrad::app::{run_render, RenderJob};
+use vkrad::app::{run, Job};
 use vkrad::output::compare::{compare_rgb8, diff_image, save_png_rgb8};
 use vkrad::output::image_io::load_png_rgb8;
 use vkrad::solve::SolveSettings;
@@ -23,7 +23,7 @@ fn cornell_box_matches_golden_image() {
     let out_dir = std::env::temp_dir().join(format!("vkrad-golden-{}", std::process::id()));
     std::fs::create_dir_all(&out_dir).unwrap();
 
-    let mut job = RenderJob::new("cornell");
+    let mut job = Job::new("cornell");
     job.output = Some(out_dir.join("cornell.png"));
     job.size = (192, 192);
     job.exposure = Some(EXPOSURE);
@@ -35,7 +35,7 @@ fn cornell_box_matches_golden_image() {
         max_shots: 20_000,
         ..Default::default()
     };
-    let report = run_render(&job, Some(device.clone()), |_| true).unwrap();
+    let report = run(&job, Some(device.clone()), |_| true).unwrap();
     common::assert_validation_clean(&device);
     assert!(report.solution.converged);
 

@@ -19,7 +19,7 @@ use plotters::prelude::*;
 
 use super::gathered::GatheredImage;
 use super::relative_rms_error_where;
-use crate::app::{run_render, RenderJob};
+use crate::app::{run, Job};
 use crate::error::{Error, Result};
 use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::gpu::Device;
@@ -136,7 +136,7 @@ pub fn run_mesher_bench(
                max_edge: f32,
                budget: Option<usize>|
      -> Result<(usize, f64, HdrImage, Option<f64>)> {
-        let mut job = RenderJob::new(scene_arg);
+        let mut job = Job::new(scene_arg);
         job.output = Some(tmp.clone());
         job.size = IMAGE;
         job.mesher = mesher;
@@ -150,7 +150,7 @@ pub fn run_mesher_bench(
         job.solve = solve_settings();
         let t = Instant::now();
         job.exposure = Some(exposure);
-        let r = run_render(&job, Some(device.clone()), |_| true)?;
+        let r = run(&job, Some(device.clone()), |_| true)?;
         Ok((
             r.mesh.elements.len(),
             t.elapsed().as_secs_f64(),

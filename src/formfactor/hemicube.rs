@@ -10,10 +10,6 @@ use glam::{Mat4, Vec3};
 use crate::geom::frustum::frustum;
 use crate::geom::tangent_frame;
 
-/// Fixed-point scale of accumulated form factors: F = sum / 2^31 (a full
-/// hemicube sums to exactly 1, so any element's sum fits in a u32).
-pub const FF_FIXED_ONE: f64 = 2_147_483_648.0;
-
 /// A hemicube of `res` x `res` pixels on the top face.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Hemicube {
@@ -75,14 +71,6 @@ impl Hemicube {
         weights
     }
 
-    /// The delta form factors in the GPU's fixed point (see [`FF_FIXED_ONE`]).
-    pub fn fixed_point_weights(&self) -> Vec<u32> {
-        self.delta_form_factors()
-            .into_iter()
-            .map(|w| (w * FF_FIXED_ONE).round() as u32)
-            .collect()
-    }
-
     /// World-to-clip matrices of the five faces for a hemicube at `centre`
     /// facing `normal` (unit). `near` clips what is closer than that.
     pub fn face_view_proj(&self, centre: Vec3, normal: Vec3, near: f32) -> [Mat4; 5] {
@@ -119,8 +107,6 @@ mod tests {
         // form factor from a point to a unit-distance 2x2 square).
         let top: f64 = w[..(128 * 128)].iter().sum();
         assert!((top - 0.55415).abs() < 2e-3, "top face share {top}");
-        let fixed: u64 = h.fixed_point_weights().iter().map(|&x| x as u64).sum();
-        assert!((fixed as f64 / FF_FIXED_ONE - 1.0).abs() < 1e-6);
     }
 
     #[test]

@@ -7,6 +7,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
+use super::commands::{barriers, buffer_barrier, Commands};
 use super::context::Device;
 use crate::error::{Error, Result};
 
@@ -289,4 +290,62 @@ pub fn subresource_range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRa
         base_array_layer: 0,
         layer_count: 1,
     }
+}
+
+/// Creates a device-local buffer holding `data` (through a staging buffer).
+pub fn upload<T: bytemuck::Pod>(
+    device: &Arc<Device>,
+    name: &str,
+    data: &[T],
+    usage: vk::BufferUsageFlags,
+) -> Result<Buffer> {
+    let bytes = std::mem::size_of_val(data) as u64;
+    let staging = Buffer::with_data(
+        device,
+        &format!("{name} (staging)"),
+        data,
+        vk::BufferUsageFlags::TRANSFER_SRC,
+    )?;
+    let buffer = Buffer::new(
+        device,
+        name,
+        bytes,
+        usage | vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuOnly,
+    )?;
+    let cmds = Commands::new(device, &format!("upload {name}"))?;
+    let cmd = cmds.begin()?;
+    // SAFETY: both buffers hold at least `bytes`.
+    unsafe {
+        device.raw.cmd_copy_buffer(
+            cmd,
+            staging.raw(),
+            buffer.raw(),
+            &[vk::BufferCopy {
+                src_offset: 0,
+                dst_offset: 0,
+                size: bytes.max(4).min(buffer.size()),
+            }],
+        )
+    };
+    // Upload copy -> every later use (vertex input, shaders, copies).
+    barriers(
+        device,
+        cmd,
+        &[buffer_barrier(
+            buffer.raw(),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_WRITE,
+            ),
+            (
+                vk::PipelineStageFlags2::ALL_COMMANDS,
+                vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
+            ),
+        )],
+        &[],
+    );
+    cmds.end()?;
+    cmds.submit_and_wait()?;
+    Ok(buffer)
 }

@@ -3,12 +3,13 @@
 
 pub mod commands;
 pub mod context;
-pub mod hemicube;
+pub mod item;
 pub mod memory;
 pub mod pipeline;
 pub mod profiler;
 pub mod raster;
 pub mod shaders;
+pub mod shooting;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};

@@ -9,8 +9,7 @@ use super::commands::{
     barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
 };
 use super::context::Device;
-use super::hemicube::upload;
-use super::memory::{Buffer, Image};
+use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use super::shaders;

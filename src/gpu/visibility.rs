@@ -18,8 +18,8 @@ use super::commands::{
     Commands,
 };
 use super::context::Device;
-use super::hemicube::{upload, ItemVertex};
-use super::memory::{Buffer, Image};
+use super::item::{ItemVertex, ITEM_FORMAT, NO_ITEM};
+use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, GraphicsDesc, Pipeline, StencilMode};
 use super::profiler::{GpuProfiler, StageTimes};
 use super::shaders;
@@ -34,8 +34,6 @@ pub struct VisibilityTile {
     pub vertex_count: u32,
 }
 
-const ITEM_FORMAT: vk::Format = vk::Format::R32_UINT;
-const NO_POLYGON: u32 = u32::MAX;
 /// Tiles per atlas side at most; a batch is up to 32 x 32 tiles.
 const MAX_TILES_PER_SIDE: u32 = 32;
 
@@ -274,7 +272,7 @@ impl VisibilityPass {
                 (
                     self.item.view(),
                     vk::ClearColorValue {
-                        uint32: [NO_POLYGON; 4],
+                        uint32: [NO_ITEM; 4],
                     },
                 ),
                 self.depth.view(),

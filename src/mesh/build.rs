@@ -87,6 +87,11 @@ impl<'a> MeshBuilder<'a> {
         })
     }
 
+    /// The mesher this builder runs.
+    pub fn mesher(&self) -> Mesher {
+        self.settings.mesher
+    }
+
     pub fn settings(&self) -> &MeshSettings {
         &self.settings
     }

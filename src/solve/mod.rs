@@ -1,11 +1,17 @@
 //! Progressive refinement radiosity (thesis ch. 3): the CPU heap picks the
-//! shooter, the GPU computes form factors and updates every receiver.
+//! shooter (`heap`), a shot gives its form factors and updates every
+//! receiver (`shoot`), the loop runs to convergence (`progressive`) and
+//! returns a `Solution`; `adaptive` refines the mesh a posteriori from a
+//! solution; `patch_matrix` is the patch-to-patch form-factor matrix.
 
+pub mod adaptive;
 pub mod heap;
 pub mod patch_matrix;
 pub mod progressive;
+pub mod shoot;
+pub mod solution;
 
 pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};
-pub use progressive::{
-    area_mean, solve, CpuFormFactors, FormFactorMethod, GpuMesh, Progress, Solution, SolveSettings,
-};
+pub use progressive::{solve, Progress, SolveSettings};
+pub use shoot::{CpuFormFactors, FormFactorMethod, GpuMesh, Shots};
+pub use solution::{area_mean, Solution};

@@ -11,7 +11,7 @@ use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
-use super::progressive::{CpuFormFactors, FormFactorMethod, GpuMesh};
+use super::shoot::{CpuFormFactors, FormFactorMethod, GpuMesh};
 use crate::formfactor::analytic::polygon_to_polygon;
 
 /// F_ij for all input patches, in file order.

@@ -10,7 +10,7 @@ use glam::{DVec3, Mat4, Vec3};
 use crate::error::Result;
 use crate::geom::frustum::frustum;
 use crate::geom::tangent_frame;
-use crate::gpu::hemicube::ItemVertex;
+use crate::gpu::item::ItemVertex;
 use crate::gpu::visibility::{VisibilityPass, VisibilityTile};
 use crate::gpu::{Device, StageTimes};
 use crate::scene::Scene;

@@ -1,5 +1,6 @@
-//! A-posteriori refinement: find the elements where the Gouraud image is
-//! wrong, and give the mesher points to split them.
+//! A-posteriori (adaptive) refinement: find the elements where the Gouraud
+//! image is wrong, give the mesher points to split them, mesh and solve
+//! again ([`refine_and_resolve`]).
 //!
 //! The image interpolates vertex radiosities linearly across each element,
 //! so its error inside an element is the gap between the true radiosity and
@@ -13,16 +14,24 @@
 //! Elements are taken worst first, by `gap^2 x area` (their share of the
 //! image's squared error), above a tolerance and within an element budget.
 
+use std::sync::Arc;
+use std::time::Instant;
+
 use glam::Vec3;
 
+use super::progressive::{solve, Progress, SolveSettings};
+use super::solution::Solution;
+use crate::error::Result;
 use crate::formfactor::gather::{GatherRays, Gatherer};
+use crate::gpu::Device;
+use crate::mesh::build::{check_mesh, MeshBuilder, MeshReport};
 use crate::mesh::{Element, Mesh};
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 
 /// When to split.
 #[derive(Debug, Clone, Copy)]
-pub struct RefineSettings {
+pub struct AdaptiveSettings {
     /// Split where the centroid gap exceeds this fraction of the mean
     /// radiosity of the non-emitting surfaces.
     pub tolerance: f32,
@@ -31,6 +40,102 @@ pub struct RefineSettings {
     /// Leave elements whose longest edge is under twice this alone.
     pub min_edge: f32,
     pub rays: GatherRays,
+}
+
+/// A mesh, how it was made, and its solution.
+pub struct Solved {
+    pub mesh: Mesh,
+    pub report: MeshReport,
+    pub solution: Solution,
+}
+
+/// What [`refine_and_resolve`] did besides its result.
+#[derive(Debug, Clone, Default)]
+pub struct AdaptiveHistory {
+    /// Element counts of every mesh solved, the first included.
+    pub elements: Vec<usize>,
+    /// The estimated relative RMS interpolation error of every mesh solved
+    /// (all but the last drive a pass; the last is measured after it).
+    pub errors: Vec<f64>,
+    /// Wall seconds per stage: "adaptive estimate", "adaptive mesh",
+    /// "adaptive solve", summed over passes.
+    pub wall: Vec<(&'static str, f64)>,
+}
+
+/// Up to `passes` rounds of: estimate every element's interpolation error
+/// from `solved`, split the worst ([`split_points`]), mesh again with all
+/// the points so far (`builder` keeps its GPU blocker table), solve again.
+/// Stops early when nothing needs splitting or a solve is interrupted;
+/// `check` runs the mesh sanity check on every new mesh.
+#[allow(clippy::too_many_arguments)]
+pub fn refine_and_resolve(
+    device: &Arc<Device>,
+    scene: &Scene,
+    builder: &mut MeshBuilder,
+    mut solved: Solved,
+    passes: usize,
+    settings: &AdaptiveSettings,
+    solve_settings: &SolveSettings,
+    check: bool,
+    on_progress: &mut impl FnMut(&Progress) -> bool,
+) -> Result<(Solved, AdaptiveHistory)> {
+    let mut history = AdaptiveHistory {
+        elements: vec![solved.mesh.elements.len()],
+        ..Default::default()
+    };
+    let mut extra_points = Vec::new();
+    for pass in 0..=passes {
+        if passes == 0 || solved.solution.interrupted {
+            break;
+        }
+        let t = Instant::now();
+        let (mesh, solution) = (&solved.mesh, &solved.solution);
+        let b = solution.vertex_radiosity(mesh);
+        let gaps = interpolation_gaps(scene, mesh, &solution.radiosity, &b, settings.rays);
+        history.errors.push(estimated_error(scene, mesh, &b, &gaps));
+        let points = split_points(scene, mesh, &b, &gaps, settings);
+        add_wall(
+            &mut history.wall,
+            "adaptive estimate",
+            t.elapsed().as_secs_f64(),
+        );
+        if pass == passes || points.is_empty() {
+            break;
+        }
+        let t = Instant::now();
+        extra_points.extend(points);
+        let (mesh, report) = builder.build(&extra_points)?;
+        if check {
+            check_mesh(&mesh, scene, builder.mesher())?;
+        }
+        add_wall(
+            &mut history.wall,
+            "adaptive mesh",
+            t.elapsed().as_secs_f64(),
+        );
+        let t = Instant::now();
+        let solution = solve(device, scene, &mesh, solve_settings, &mut *on_progress)?;
+        add_wall(
+            &mut history.wall,
+            "adaptive solve",
+            t.elapsed().as_secs_f64(),
+        );
+        history.elements.push(mesh.elements.len());
+        solved = Solved {
+            mesh,
+            report,
+            solution,
+        };
+    }
+    Ok((solved, history))
+}
+
+/// Adds `seconds` to the stage `name`, summing the stages of repeated passes.
+pub fn add_wall(wall: &mut Vec<(&'static str, f64)>, name: &'static str, seconds: f64) {
+    match wall.iter_mut().find(|(n, _)| *n == name) {
+        Some((_, total)) => *total += seconds,
+        None => wall.push((name, seconds)),
+    }
 }
 
 /// The estimated interpolation error of every element, as a luminance gap
@@ -62,12 +167,12 @@ pub fn interpolation_gaps(
 /// `(patch, point)`. Centroids lie strictly inside their element, so they
 /// never land on a constraint or a patch boundary. At most one point per
 /// two elements is returned, so a pass at most doubles the mesh.
-pub fn refinement_points(
+pub fn split_points(
     scene: &Scene,
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
     gaps: &[f32],
-    settings: &RefineSettings,
+    settings: &AdaptiveSettings,
 ) -> Vec<(u32, Vec3)> {
     let Some(mean) = mean_receiver_radiosity(scene, mesh, vertex_radiosity) else {
         return Vec::new();

@@ -15,18 +15,25 @@ use super::commands::{
     Commands,
 };
 use super::context::Device;
-use super::memory::{Buffer, Image};
+use super::item::{ItemVertex, ITEM_FORMAT, NO_ITEM};
+use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use super::shaders;
 use crate::error::{Error, Result};
 
-/// One vertex of the item-buffer geometry: position and the element it belongs to.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ItemVertex {
-    pub position: [f32; 3],
-    pub element: u32,
+/// Fixed-point scale of accumulated form factors: F = sum / 2^31
+/// (`FF_SCALE` in glsl/shot_params.glsl). A full hemicube sums to exactly
+/// 1, so any element's sum fits in a u32, and integer atomics make the
+/// reduction exact and independent of execution order.
+pub const FF_FIXED_ONE: f64 = 2_147_483_648.0;
+
+/// Delta form factors (summing to 1) in the GPU's fixed point.
+pub fn fixed_point_weights(delta_form_factors: &[f64]) -> Vec<u32> {
+    delta_form_factors
+        .iter()
+        .map(|w| (w * FF_FIXED_ONE).round() as u32)
+        .collect()
 }
 
 /// Per-shot parameters (std140, mirrors glsl/shot_params.glsl).
@@ -42,7 +49,7 @@ pub struct ShotParams {
 }
 
 /// What the engine needs to know of the scene, as plain arrays.
-pub struct HemicubeInputs<'a> {
+pub struct ShootingInputs<'a> {
     /// Three vertices per triangle, each tagged with its element.
     pub triangles: &'a [ItemVertex],
     /// Per element: rgb reflectance, w area.
@@ -57,9 +64,7 @@ pub struct HemicubeInputs<'a> {
     pub face_viewports: [(u32, u32, u32, u32); 5],
 }
 
-const ITEM_FORMAT: vk::Format = vk::Format::R32_UINT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
-const NO_ELEMENT: u32 = u32::MAX;
 /// Pixels per reduction invocation (RUN in glsl/ff_reduce.comp).
 const REDUCE_RUN: u32 = 16;
 
@@ -89,7 +94,7 @@ impl Submission {
     }
 }
 
-pub struct HemicubeEngine {
+pub struct ShootingEngine {
     device: Arc<Device>,
     element_count: u32,
     triangle_vertices: u32,
@@ -123,8 +128,8 @@ pub struct HemicubeEngine {
     pub times: StageTimes,
 }
 
-impl HemicubeEngine {
-    pub fn new(device: &Arc<Device>, inputs: &HemicubeInputs) -> Result<Self> {
+impl ShootingEngine {
+    pub fn new(device: &Arc<Device>, inputs: &ShootingInputs) -> Result<Self> {
         let n = inputs.reflectance_area.len();
         if n == 0 || inputs.triangles.is_empty() {
             return Err(Error::Invalid("the mesh has no elements".into()));
@@ -262,7 +267,7 @@ impl HemicubeEngine {
         let shoot_pipeline =
             Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
 
-        let mut engine = HemicubeEngine {
+        let mut engine = ShootingEngine {
             device: device.clone(),
             element_count: n as u32,
             triangle_vertices: inputs.triangles.len() as u32,
@@ -330,7 +335,7 @@ impl HemicubeEngine {
                 (
                     self.item.view(),
                     vk::ClearColorValue {
-                        uint32: [NO_ELEMENT; 4],
+                        uint32: [NO_ITEM; 4],
                     },
                 ),
                 self.depth.view(),
@@ -625,7 +630,7 @@ impl HemicubeEngine {
                 self.element_count
             )));
         }
-        let one = crate::formfactor::hemicube::FF_FIXED_ONE;
+        let one = FF_FIXED_ONE;
         // Same fixed point as the hemicube reduction; u32 holds up to F = 2.
         let fixed: Vec<u32> = form_factors
             .iter()
@@ -644,10 +649,7 @@ impl HemicubeEngine {
         self.write_params(face_view_proj, u32::MAX, [0.0; 4])?;
         self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
-        Ok(fixed
-            .into_iter()
-            .map(|f| f as f64 / crate::formfactor::hemicube::FF_FIXED_ONE)
-            .collect())
+        Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
     }
 
     /// Submits one of the recorded command buffers, waits, and adds its
@@ -694,60 +696,14 @@ impl HemicubeEngine {
     }
 }
 
-/// Creates a device-local buffer holding `data` (through a staging buffer).
-pub fn upload<T: bytemuck::Pod>(
-    device: &Arc<Device>,
-    name: &str,
-    data: &[T],
-    usage: vk::BufferUsageFlags,
-) -> Result<Buffer> {
-    let bytes = std::mem::size_of_val(data) as u64;
-    let staging = Buffer::with_data(
-        device,
-        &format!("{name} (staging)"),
-        data,
-        vk::BufferUsageFlags::TRANSFER_SRC,
-    )?;
-    let buffer = Buffer::new(
-        device,
-        name,
-        bytes,
-        usage | vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuOnly,
-    )?;
-    let cmds = Commands::new(device, &format!("upload {name}"))?;
-    let cmd = cmds.begin()?;
-    // SAFETY: both buffers hold at least `bytes`.
-    unsafe {
-        device.raw.cmd_copy_buffer(
-            cmd,
-            staging.raw(),
-            buffer.raw(),
-            &[vk::BufferCopy {
-                src_offset: 0,
-                dst_offset: 0,
-                size: bytes.max(4).min(buffer.size()),
-            }],
-        )
-    };
-    // Upload copy -> every later use (vertex input, shaders, copies).
-    barriers(
-        device,
-        cmd,
-        &[buffer_barrier(
-            buffer.raw(),
-            (
-                vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-            (
-                vk::PipelineStageFlags2::ALL_COMMANDS,
-                vk::AccessFlags2::MEMORY_READ | vk::AccessFlags2::MEMORY_WRITE,
-            ),
-        )],
-        &[],
-    );
-    cmds.end()?;
-    cmds.submit_and_wait()?;
-    Ok(buffer)
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fixed_point_weights_of_a_partition_of_one_sum_to_one() {
+        let w: Vec<f64> = (1..=64).map(|k| k as f64 / 2080.0).collect();
+        let fixed: u64 = fixed_point_weights(&w).iter().map(|&x| x as u64).sum();
+        assert!((fixed as f64 / FF_FIXED_ONE - 1.0).abs() < 1e-8);
+    }
 }

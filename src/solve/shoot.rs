@@ -1,0 +1,251 @@
+//! One shot of progressive refinement (thesis fig. 8): form factors from
+//! the shooter to every receiver, by the GPU hemicube or a CPU method, then
+//! the compute-shader update of every receiver's radiosity and unshot
+//! radiosity. [`Shots`] hides which method made the form factors.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::formfactor::analytic::element_and_vertex_form_factors_analytic;
+use crate::formfactor::hemicube::Hemicube;
+use crate::formfactor::raytrace::RayTracedFormFactors;
+use crate::gpu::item::ItemVertex;
+use crate::gpu::shooting::{fixed_point_weights, ShootingEngine, ShootingInputs};
+use crate::gpu::{Device, StageTimes};
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// Where each shot's form factors come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FormFactorMethod {
+    /// GPU hemicube at the shooter's centre (thesis 2.3.1).
+    Hemicube,
+    /// CPU rays from every receiver vertex to stratified points on the
+    /// shooter (thesis 2.3.2, Wallace et al. 1989), `rays` per vertex.
+    RayTrace { rays: usize },
+    /// Exact point-to-polygon form factors at receiver vertices, ignoring
+    /// occlusion: correct only for scenes where nothing blocks anything.
+    Analytic,
+}
+
+impl FormFactorMethod {
+    pub fn name(&self) -> String {
+        match self {
+            FormFactorMethod::Hemicube => "hemicube".into(),
+            FormFactorMethod::RayTrace { rays } => format!("raytrace ({rays} rays)"),
+            FormFactorMethod::Analytic => "analytic (unoccluded)".into(),
+        }
+    }
+}
+
+/// Geometry and materials of the mesh in the form the GPU passes take.
+pub struct GpuMesh {
+    pub triangles: Vec<ItemVertex>,
+    pub reflectance_area: Vec<[f32; 4]>,
+    pub emission: Vec<[f32; 4]>,
+}
+
+impl GpuMesh {
+    pub fn new(scene: &Scene, mesh: &Mesh) -> Self {
+        let mut triangles = Vec::with_capacity(mesh.triangle_count() * 3);
+        let mut reflectance_area = Vec::with_capacity(mesh.elements.len());
+        let mut emission = Vec::with_capacity(mesh.elements.len());
+        for (i, e) in mesh.elements.iter().enumerate() {
+            for tri in e.triangles() {
+                for v in tri {
+                    triangles.push(ItemVertex {
+                        position: mesh.vertices[v as usize].to_array(),
+                        element: i as u32,
+                    });
+                }
+            }
+            let m = scene.patch_material(e.patch);
+            reflectance_area.push(m.reflectance.extend(e.area).to_array());
+            // Emitted radiosity E = pi * L_e.
+            emission.push((m.emission * std::f32::consts::PI).extend(0.0).to_array());
+        }
+        GpuMesh {
+            triangles,
+            reflectance_area,
+            emission,
+        }
+    }
+
+    /// Builds the GPU engine over this mesh.
+    pub fn engine(&self, device: &Arc<Device>, hemicube: Hemicube) -> Result<ShootingEngine> {
+        let weights = fixed_point_weights(&hemicube.delta_form_factors());
+        ShootingEngine::new(
+            device,
+            &ShootingInputs {
+                triangles: &self.triangles,
+                reflectance_area: &self.reflectance_area,
+                initial_radiosity: &self.emission,
+                weights: &weights,
+                atlas: hemicube.atlas_size(),
+                face_viewports: std::array::from_fn(|f| hemicube.face_viewport(f)),
+            },
+        )
+    }
+}
+
+/// Distance below which the hemicube clips geometry, relative to the
+/// shooter's size: small enough to lose no visible solid angle, large enough
+/// for depth precision (reverse-Z keeps it fine near the eye).
+fn near_plane(area: f32) -> f32 {
+    1e-4 * area.sqrt()
+}
+
+/// Form factors computed on the CPU for one shooter at a time.
+pub enum CpuFormFactors<'a> {
+    RayTrace {
+        tracer: Box<RayTracedFormFactors<'a>>,
+        rays: usize,
+    },
+    Analytic {
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+    },
+}
+
+impl<'a> CpuFormFactors<'a> {
+    /// `None` for the GPU hemicube.
+    pub fn new(scene: &'a Scene, mesh: &'a Mesh, method: FormFactorMethod) -> Option<Self> {
+        match method {
+            FormFactorMethod::Hemicube => None,
+            FormFactorMethod::RayTrace { rays } => Some(CpuFormFactors::RayTrace {
+                tracer: Box::new(RayTracedFormFactors::new(scene, mesh)),
+                rays,
+            }),
+            FormFactorMethod::Analytic => Some(CpuFormFactors::Analytic { scene, mesh }),
+        }
+    }
+
+    /// F(shooter -> every element). `salt` varies the ray pattern per shot.
+    pub fn from_shooter(&self, shooter: usize, salt: u64) -> Vec<f32> {
+        self.from_shooter_with_vertices(shooter, salt).0
+    }
+
+    /// F(shooter -> every element), and for ray tracing also F(vertex <-
+    /// shooter) at every vertex (Wallace's vertex-to-source values).
+    pub fn from_shooter_with_vertices(
+        &self,
+        shooter: usize,
+        salt: u64,
+    ) -> (Vec<f32>, Option<Vec<f32>>) {
+        match self {
+            CpuFormFactors::RayTrace { tracer, rays } => {
+                let seed = salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ shooter as u64;
+                let (elements, vertices) = tracer.from_shooter_with_vertices(shooter, *rays, seed);
+                (elements, Some(vertices))
+            }
+            CpuFormFactors::Analytic { scene, mesh } => {
+                let (elements, vertices) =
+                    element_and_vertex_form_factors_analytic(scene, mesh, shooter);
+                (elements, Some(vertices))
+            }
+        }
+    }
+
+    pub fn stage_name(&self) -> &'static str {
+        match self {
+            CpuFormFactors::RayTrace { .. } => "ray-traced form factors (CPU)",
+            CpuFormFactors::Analytic { .. } => "analytic form factors (CPU)",
+        }
+    }
+}
+
+/// Shoots from one element at a time, by any [`FormFactorMethod`], and
+/// keeps what the method accumulates besides the GPU's element radiosity
+/// (the CPU methods' radiosity at the vertices themselves).
+pub struct Shots<'a> {
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+    hemicube: Hemicube,
+    engine: ShootingEngine,
+    cpu: Option<CpuFormFactors<'a>>,
+    /// The patch of every vertex (vertices belong to one patch).
+    vertex_patch: Vec<u32>,
+    /// Radiosity at every vertex (CPU methods only: Wallace 1989).
+    vertex_radiosity: Option<Vec<[f32; 3]>>,
+    cpu_times: StageTimes,
+}
+
+impl<'a> Shots<'a> {
+    pub fn new(
+        device: &Arc<Device>,
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        gpu_mesh: &GpuMesh,
+        method: FormFactorMethod,
+        hemicube_res: u32,
+    ) -> Result<Self> {
+        let hemicube = Hemicube::new(hemicube_res)?;
+        let engine = gpu_mesh.engine(device, hemicube)?;
+        let cpu = CpuFormFactors::new(scene, mesh, method);
+        let mut vertex_patch = vec![0u32; mesh.vertices.len()];
+        for e in &mesh.elements {
+            for &v in e.corners() {
+                vertex_patch[v as usize] = e.patch;
+            }
+        }
+        let vertex_radiosity = cpu.as_ref().map(|_| {
+            vertex_patch
+                .iter()
+                .map(|&p| (scene.patch_material(p).emission * std::f32::consts::PI).to_array())
+                .collect()
+        });
+        Ok(Shots {
+            scene,
+            mesh,
+            hemicube,
+            engine,
+            cpu,
+            vertex_patch,
+            vertex_radiosity,
+            cpu_times: StageTimes::default(),
+        })
+    }
+
+    /// Shoots the unshot radiosity `unshot` (rgb) of element `shooter`;
+    /// `salt` varies the CPU methods' ray pattern per shot. Returns every
+    /// element's unshot radiosity after the shot (rgba, a unused).
+    pub fn shoot(&mut self, shooter: usize, unshot: [f32; 3], salt: u64) -> Result<Vec<[f32; 4]>> {
+        let e = &self.mesh.elements[shooter];
+        let Some(cpu) = &self.cpu else {
+            let faces = self
+                .hemicube
+                .face_view_proj(e.centre, e.normal, near_plane(e.area));
+            return self.engine.shoot(&faces, shooter as u32, unshot, e.area);
+        };
+        let t = Instant::now();
+        let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter, salt);
+        if let (Some(vb), Some(vff)) = (self.vertex_radiosity.as_mut(), vertex_ff) {
+            // dB_v = rho_v F(v <- i) dB_i, at the vertices themselves.
+            for (v, (b, f)) in vb.iter_mut().zip(vff).enumerate() {
+                if f > 0.0 {
+                    let rho = self.scene.patch_material(self.vertex_patch[v]).reflectance;
+                    for c in 0..3 {
+                        b[c] += rho[c] * f * unshot[c];
+                    }
+                }
+            }
+        }
+        self.cpu_times.add(cpu.stage_name(), t.elapsed());
+        self.engine.shoot_with(&ff, shooter as u32, unshot, e.area)
+    }
+
+    /// Every element's radiosity (rgb), the vertex radiosity of the CPU
+    /// methods, and the time per stage of all shots.
+    pub fn finish(mut self) -> Result<(Vec<[f32; 3]>, Option<Vec<[f32; 3]>>, StageTimes)> {
+        let radiosity = self
+            .engine
+            .radiosity()?
+            .into_iter()
+            .map(|b| [b[0], b[1], b[2]])
+            .collect();
+        let mut times = self.engine.times.clone();
+        times.merge(&self.cpu_times);
+        Ok((radiosity, self.vertex_radiosity, times))
+    }
+}

@@ -1,0 +1,96 @@
+//! What a solve returns: radiosity per element (and per vertex where the
+//! method computes it there), with its residual history and timings.
+
+use glam::Vec3;
+
+use crate::gpu::StageTimes;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// The result of a solve.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// Radiosity B per element (rgb, W/m^2 in the scene's units).
+    pub radiosity: Vec<[f32; 3]>,
+    /// Radiosity B at every mesh vertex where the method computes it there
+    /// (ray tracing: Wallace's vertex-to-source; analytic: exact point form
+    /// factors), for display; `None` (hemicube): derive it from the elements
+    /// (`Mesh::vertex_values`).
+    pub vertex_radiosity: Option<Vec<[f32; 3]>>,
+    pub shots: usize,
+    /// Unshot power / emitted power at the end.
+    pub residual: f64,
+    pub converged: bool,
+    /// The caller stopped the solve early (Ctrl-C): the result is partial.
+    pub interrupted: bool,
+    /// Unshot radiosity per element at the end (rgb): what an ambient term
+    /// stands in for in a preview.
+    pub unshot: Vec<[f32; 3]>,
+    /// Residual before the first shot and after each shot.
+    pub residual_history: Vec<f64>,
+    /// Emitted power (mean over rgb) in the scene's units.
+    pub emitted_power: f64,
+    /// GPU time per stage (or CPU time where timestamps are missing).
+    pub times: StageTimes,
+    /// Wall time of the whole solve, set-up included.
+    pub wall_seconds: f64,
+}
+
+/// Area-weighted mean of per-element values over all elements (used by the
+/// energy-balance tests and the summary).
+pub fn area_mean(mesh: &Mesh, values: &[[f32; 3]]) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    let mut area = 0.0;
+    for (e, v) in mesh.elements.iter().zip(values) {
+        sum += Vec3::from(*v) * e.area;
+        area += e.area;
+    }
+    sum / area
+}
+
+impl Solution {
+    /// Per-vertex radiosity for display: the solver's own vertex values
+    /// where it has them (CPU methods), else the area-weighted element
+    /// average.
+    pub fn vertex_radiosity(&self, mesh: &Mesh) -> Vec<[f32; 3]> {
+        match &self.vertex_radiosity {
+            Some(v) => v.clone(),
+            None => mesh.vertex_values(&self.radiosity),
+        }
+    }
+
+    /// The ambient term of this solution's unshot light (Cohen, Chen,
+    /// Wallace and Greenberg 1988): the unshot power spread evenly over the
+    /// scene and interreflected with the area-averaged reflectance,
+    /// ambient = sum(B_unshot A) / sum(A) / (1 - rho_avg), per channel.
+    /// Added as rho * ambient to what a preview shows ([`add_ambient`]), it
+    /// stands in for the light still to be shot.
+    pub fn ambient(&self, scene: &Scene, mesh: &Mesh) -> Vec3 {
+        let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
+        for (e, u) in mesh.elements.iter().zip(&self.unshot) {
+            power += Vec3::from(*u) * e.area;
+            reflected += scene.patch_material(e.patch).reflectance * e.area;
+            area += e.area;
+        }
+        if area <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let rho = (reflected / area).min(Vec3::splat(0.999));
+        power / area / (Vec3::ONE - rho)
+    }
+}
+
+/// Adds `rho * ambient` to every vertex's radiosity (vertices belong to one
+/// patch, whose reflectance they take).
+pub fn add_ambient(scene: &Scene, mesh: &Mesh, radiosity: &mut [[f32; 3]], ambient: Vec3) {
+    let mut done = vec![false; radiosity.len()];
+    for e in &mesh.elements {
+        let rho = scene.patch_material(e.patch).reflectance;
+        for &v in e.corners() {
+            if !std::mem::replace(&mut done[v as usize], true) {
+                radiosity[v as usize] =
+                    (Vec3::from(radiosity[v as usize]) + rho * ambient).to_array();
+            }
+        }
+    }
+}
