@@ -25,12 +25,13 @@ impl std::fmt::Display for SourceLocation {
 
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A file could not be read or written.
-    #[error("{}: {source}", path.display())]
+    /// A file could not be read or written. The reason is part of the
+    /// message and not a separate `source`, so that error chains (anyhow's
+    /// `{:#}`) do not print it twice.
+    #[error("{}: {cause}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        cause: std::io::Error,
     },
 
     /// The scene is malformed: says where, what and what to do about it.
@@ -109,7 +110,7 @@ impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            cause: source,
         }
     }
 

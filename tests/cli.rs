@@ -69,6 +69,29 @@ fn missing_file() {
     );
 }
 
+/// Regression: the hint was printed twice, once run into the message.
+#[test]
+fn missing_scene_prints_its_hint_once() {
+    let dir = temp_dir("missing-hint");
+    let err = stderr(&vkrad(&["vise:"], &dir));
+    assert_eq!(err.matches("hint: built-in scenes").count(), 1, "{err}");
+    assert_eq!(err.matches("no such file").count(), 1, "{err}");
+}
+
+/// Every built-in scene is named in `--help`.
+#[test]
+fn help_names_every_built_in_scene() {
+    let dir = temp_dir("help");
+    let out = vkrad(&["--help"], &dir);
+    let help = String::from_utf8_lossy(&out.stdout).to_string();
+    for name in vkrad::scene::builtin_names() {
+        assert!(
+            help.contains(&format!("{name},")) || help.contains(&format!("{name})")),
+            "{name} missing from --help:\n{help}"
+        );
+    }
+}
+
 #[test]
 fn malformed_vertex_names_its_line() {
     let obj = GOOD_OBJ.replace("v 1 0 1\n", "v 1 0\n");

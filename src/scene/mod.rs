@@ -285,7 +285,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         }
         libs_read.push(&lib.name);
         let (path, text) = resolve(&lib.name).map_err(|e| match e {
-            Error::Io { path, source: io } => Error::scene(
+            Error::Io { path, cause: io } => Error::scene(
                 &source,
                 lib.line,
                 format!(

@@ -147,7 +147,10 @@ fn builtins_and_scene_args() {
     assert_eq!(load_scene_arg("cornell").unwrap().name, "cornell");
     assert_eq!(load_scene_arg("builtin:simple").unwrap().name, "simple");
     match load_scene_arg("/no/such/dir/scene.obj") {
-        Err(Error::Io { path, source }) => {
+        Err(Error::Io {
+            path,
+            cause: source,
+        }) => {
             assert_eq!(path, PathBuf::from("/no/such/dir/scene.obj"));
             assert_eq!(source.kind(), std::io::ErrorKind::NotFound);
             let msg = source.to_string();

@@ -135,10 +135,10 @@ pub fn solve(
     if unshot_power / emitted_power < settings.converge {
         converged = true;
     }
-    let (radiosity, vertex_radiosity, times) = shots_engine.finish()?;
+    let shot = shots_engine.finish()?;
     Ok(Solution {
-        radiosity,
-        vertex_radiosity,
+        radiosity: shot.radiosity,
+        vertex_radiosity: shot.vertex_radiosity,
         unshot: unshot.iter().map(|u| [u[0], u[1], u[2]]).collect(),
         shots,
         residual: unshot_power / emitted_power,
@@ -146,7 +146,7 @@ pub fn solve(
         interrupted,
         residual_history,
         emitted_power,
-        times,
+        times: shot.times,
         wall_seconds: start.elapsed().as_secs_f64(),
     })
 }

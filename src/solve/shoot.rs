@@ -155,6 +155,16 @@ impl<'a> CpuFormFactors<'a> {
     }
 }
 
+/// What all the shots of a solve left behind.
+pub struct ShotTotals {
+    /// Radiosity per element (rgb).
+    pub radiosity: Vec<[f32; 3]>,
+    /// Radiosity per vertex, where the method computes it there.
+    pub vertex_radiosity: Option<Vec<[f32; 3]>>,
+    /// Time per stage of all shots.
+    pub times: StageTimes,
+}
+
 /// Shoots from one element at a time, by any [`FormFactorMethod`], and
 /// keeps what the method accumulates besides the GPU's element radiosity
 /// (the CPU methods' radiosity at the vertices themselves).
@@ -235,9 +245,9 @@ impl<'a> Shots<'a> {
         self.engine.shoot_with(&ff, shooter as u32, unshot, e.area)
     }
 
-    /// Every element's radiosity (rgb), the vertex radiosity of the CPU
-    /// methods, and the time per stage of all shots.
-    pub fn finish(mut self) -> Result<(Vec<[f32; 3]>, Option<Vec<[f32; 3]>>, StageTimes)> {
+    /// Every element's radiosity, the vertex radiosity of the CPU methods,
+    /// and the time per stage of all shots.
+    pub fn finish(mut self) -> Result<ShotTotals> {
         let radiosity = self
             .engine
             .radiosity()?
@@ -246,6 +256,10 @@ impl<'a> Shots<'a> {
             .collect();
         let mut times = self.engine.times.clone();
         times.merge(&self.cpu_times);
-        Ok((radiosity, self.vertex_radiosity, times))
+        Ok(ShotTotals {
+            radiosity,
+            vertex_radiosity: self.vertex_radiosity,
+            times,
+        })
     }
 }

@@ -1,0 +1,294 @@
+//! The command line's grammar (clap): every subcommand and flag, with the
+//! help text `vkrad --help` prints.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use clap::{Args, Parser, Subcommand};
+use glam::Vec3;
+
+use vkrad::gpu::DeviceOptions;
+use vkrad::mesh::build::Mesher;
+use vkrad::solve::FormFactorMethod;
+
+#[derive(Parser)]
+#[command(
+    name = "vkrad",
+    version,
+    about = "Progressive-refinement radiosity on Vulkan: GPU hemicube form factors, compute-shader shooting.",
+    long_about = "Progressive-refinement radiosity on Vulkan.\n\n\
+        `vkrad SCENE` loads an OBJ scene (MTL Kd = diffuse reflectance, Ke = emitted radiance), \
+        meshes it, solves it with GPU hemicubes and compute-shader shooting, and writes SCENE.png. \
+        SCENE is a path or a built-in scene name (cornell, simple, r, vise).\n\n\
+        Pixels and exported radiance are L = B / pi, so a converged diffuse path tracer with \
+        emitter radiance Ke gives the same numbers.",
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
+pub(crate) struct Cli {
+    #[command(subcommand)]
+    pub(crate) command: Option<Command>,
+    #[command(flatten)]
+    pub(crate) render: RenderArgs,
+}
+
+#[derive(Subcommand)]
+pub(crate) enum Command {
+    /// List the Vulkan devices and which one vkrad would pick.
+    Devices,
+    /// Print the patch-to-patch form-factor matrix (input polygons, file order).
+    Formfactors(FormFactorArgs),
+    /// Write the element mesh alone (.obj or .ply), with mesher statistics.
+    Mesh(MeshOnlyArgs),
+    /// Speed against accuracy of the form-factor methods: sweeps hemicube
+    /// resolution, rays and element size, measures solve time and image error
+    /// against a reference, writes bench.json, bench.csv, bench.svg, bench.png.
+    Bench(BenchArgs),
+}
+
+#[derive(Args)]
+pub(crate) struct DeviceArgs {
+    /// Vulkan device: an index or a name substring from `vkrad devices`
+    /// (default: the first discrete GPU, else integrated, else CPU).
+    #[arg(long, value_name = "INDEX|NAME")]
+    pub(crate) device: Option<String>,
+    /// Enable the Khronos validation layer; any validation error fails the run.
+    #[arg(long)]
+    pub(crate) validate: bool,
+}
+
+#[derive(Args)]
+pub(crate) struct MeshArgs {
+    /// Maximum element edge length, in scene units (default: scene diagonal / 24).
+    #[arg(long, value_name = "LENGTH")]
+    pub(crate) max_edge: Option<f32>,
+    /// Hemicube top-face resolution in pixels (even, 2..8192).
+    #[arg(long, default_value_t = 256, value_name = "PIXELS")]
+    pub(crate) hemicube_res: u32,
+    /// Mesher: uniform quadtree, or discontinuity meshing (shadow boundaries
+    /// from every emitter vertex and edge, subdivided to --max-edge unless
+    /// --no-subdivide).
+    #[arg(long = "mesh", value_enum, default_value_t = MesherArg::Uniform)]
+    pub(crate) mesher: MesherArg,
+    /// Discontinuity meshing without subdividing its elements to --max-edge
+    /// (the thesis's mesh: shadow boundaries only).
+    #[arg(long, alias = "no-refine")]
+    pub(crate) no_subdivide: bool,
+    /// Tile side in pixels of the discontinuity mesher's GPU visibility pass.
+    #[arg(long, default_value_t = 128, value_name = "PIXELS")]
+    pub(crate) dm_res: u32,
+    /// Form factors: GPU hemicube, CPU ray tracing (vertex-to-source), or
+    /// exact unoccluded point-to-polygon (scenes where nothing blocks).
+    #[arg(long, value_enum, default_value_t = FfArg::Hemicube)]
+    pub(crate) ff: FfArg,
+    /// Rays per receiver vertex for --ff raytrace.
+    #[arg(long, default_value_t = 64, value_name = "N")]
+    pub(crate) rays: usize,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum MesherArg {
+    Uniform,
+    Discontinuity,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum FfArg {
+    Hemicube,
+    Raytrace,
+    Analytic,
+}
+
+impl MeshArgs {
+    pub(crate) fn mesher(&self) -> Mesher {
+        match self.mesher {
+            MesherArg::Uniform => Mesher::Uniform,
+            MesherArg::Discontinuity => Mesher::Discontinuity {
+                subdivide: !self.no_subdivide,
+            },
+        }
+    }
+
+    pub(crate) fn method(&self) -> Result<FormFactorMethod> {
+        Ok(match self.ff {
+            FfArg::Hemicube => FormFactorMethod::Hemicube,
+            FfArg::Raytrace if self.rays == 0 => bail!("--rays must be at least 1"),
+            FfArg::Raytrace => FormFactorMethod::RayTrace { rays: self.rays },
+            FfArg::Analytic => FormFactorMethod::Analytic,
+        })
+    }
+}
+
+#[derive(Args)]
+pub(crate) struct RenderArgs {
+    /// Scene: a path to an .obj file, or a built-in name (cornell, simple, r, vise).
+    #[arg(required = true)]
+    pub(crate) scene: Option<String>,
+    /// Output image: .png (tone-mapped sRGB), .hdr or .exr (linear radiance).
+    /// Default: SCENE_NAME.png in the current folder.
+    #[arg(short, long, value_name = "FILE")]
+    pub(crate) output: Option<PathBuf>,
+    /// Also write the lit mesh: .ply (x y z, red green blue, radiosity_r/g/b) or .obj.
+    #[arg(long, value_name = "FILE")]
+    pub(crate) export: Option<PathBuf>,
+    #[command(flatten)]
+    pub(crate) mesh: MeshArgs,
+    /// Stop when unshot power < this fraction of the emitted power.
+    #[arg(long, default_value_t = 1e-3, value_name = "FRACTION")]
+    pub(crate) converge: f64,
+    /// Stop after this many shots at the latest.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub(crate) max_shots: usize,
+    /// Camera position (with --look-at; default: the scene's camera or an automatic one).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) eye: Option<Vec3>,
+    /// Point the camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) look_at: Option<Vec3>,
+    /// Camera up direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) up: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEGREES")]
+    pub(crate) fov: Option<f32>,
+    /// Image size.
+    #[arg(long, default_value = "800x800", value_name = "WxH", value_parser = parse_size)]
+    pub(crate) size: (u32, u32),
+    /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
+    #[arg(long)]
+    pub(crate) exposure: Option<f32>,
+    /// A-posteriori refinement passes (with --mesh discontinuity): split
+    /// the elements where the shaded image is furthest from the radiosity
+    /// gathered at their centroid, solve again. Each pass at most doubles
+    /// the mesh.
+    #[arg(long, default_value_t = 0, value_name = "PASSES")]
+    pub(crate) adaptive: usize,
+    /// With --adaptive: split elements whose centroid error exceeds this
+    /// fraction of the mean radiosity of the lit surfaces.
+    #[arg(
+        long,
+        default_value_t = 0.02,
+        value_name = "FRACTION",
+        alias = "gradient"
+    )]
+    pub(crate) tolerance: f32,
+    /// With --adaptive: stop refining before the mesh passes this many
+    /// elements (the worst elements are split first).
+    #[arg(long, value_name = "N")]
+    pub(crate) max_elements: Option<usize>,
+    /// Show an unfinished solution (max shots reached, Ctrl-C) without the
+    /// ambient term (Cohen et al. 1988) that stands in for unshot light.
+    #[arg(long)]
+    pub(crate) no_ambient: bool,
+    /// Draw the mesh edges over the image (black lines).
+    #[arg(long)]
+    pub(crate) wireframe: bool,
+    /// Skip the mesh sanity check (orientation, planes, area, T-junctions).
+    #[arg(long)]
+    pub(crate) no_check_mesh: bool,
+    /// Print the GPU time per pass (Vulkan timestamps: count, total, mean, share).
+    #[arg(long)]
+    pub(crate) profile: bool,
+    /// Write settings, results and per-pass timings as JSON.
+    #[arg(long, value_name = "FILE.json")]
+    pub(crate) report: Option<PathBuf>,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    pub(crate) quiet: bool,
+    #[command(flatten)]
+    pub(crate) gpu: DeviceArgs,
+}
+
+#[derive(Args)]
+pub(crate) struct BenchArgs {
+    /// Scenes: OBJ paths, built-in names, or `plates` (an unoccluded scene
+    /// with an analytic reference). Default: plates, simple, cornell.
+    pub(crate) scenes: Vec<String>,
+    /// A short sweep (about 10 s on lavapipe), as CI runs it.
+    #[arg(long)]
+    pub(crate) quick: bool,
+    /// Folder for the results and the reference cache.
+    #[arg(short, long, default_value = "bench", value_name = "DIR")]
+    pub(crate) out_dir: PathBuf,
+    /// Element budget of each scene's bench mesh (default 300; quick 150).
+    #[arg(long, value_name = "N")]
+    pub(crate) max_elements: Option<usize>,
+    /// Recompute the references even when cached.
+    #[arg(long)]
+    pub(crate) refresh_reference: bool,
+    /// Instead: image error against element count for the meshers (uniform,
+    /// discontinuity + refinement, discontinuity a posteriori) on SCENE
+    /// (default simple): meshers.{json,svg,png}.
+    #[arg(long)]
+    pub(crate) meshers: bool,
+    #[command(flatten)]
+    pub(crate) gpu: DeviceArgs,
+}
+
+#[derive(Args)]
+pub(crate) struct MeshOnlyArgs {
+    /// Scene: a path to an .obj file, or a built-in name.
+    pub(crate) scene: String,
+    /// Output mesh: .obj or .ply.
+    #[arg(short, long, value_name = "FILE")]
+    pub(crate) output: PathBuf,
+    #[command(flatten)]
+    pub(crate) mesh: MeshArgs,
+    #[command(flatten)]
+    pub(crate) gpu: DeviceArgs,
+}
+
+#[derive(Args)]
+pub(crate) struct FormFactorArgs {
+    /// Scene: a path to an .obj file, or a built-in name.
+    pub(crate) scene: String,
+    /// Print JSON (patch names, areas and the matrix) instead of a table.
+    #[arg(long)]
+    pub(crate) json: bool,
+    #[command(flatten)]
+    pub(crate) mesh: MeshArgs,
+    #[command(flatten)]
+    pub(crate) gpu: DeviceArgs,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected three numbers like 1,2.5,-3, got {s:?}"))?;
+    match parts[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!(
+            "expected three finite numbers like 1,2.5,-3, got {s:?}"
+        )),
+    }
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT like 800x600, got {s:?}"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in {s:?}"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in {s:?}"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("size {s:?} out of range (1..16384 per side)"));
+    }
+    Ok((w, h))
+}
+
+impl DeviceArgs {
+    /// The device choice these flags make.
+    pub(crate) fn options(&self) -> DeviceOptions {
+        DeviceOptions {
+            selector: self.device.clone(),
+            validate: self.validate,
+        }
+    }
+}

@@ -1,0 +1,190 @@
+//! One function per subcommand: turn parsed arguments into a library call,
+//! then print what it did.
+
+use std::io::IsTerminal;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use anyhow::{bail, Context, Result};
+
+use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
+use super::print::{
+    print_bench, print_form_factors, print_mesh_report, print_mesher_bench, print_summary,
+};
+use super::progress::{install_interrupt_handler, ProgressLine, INTERRUPTED};
+use vkrad::app::{run, CameraOverride, Job};
+use vkrad::gpu::{self, Device, DeviceOptions};
+use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
+
+pub(crate) fn devices() -> Result<()> {
+    let devices = gpu::list_devices()?;
+    if devices.is_empty() {
+        bail!("the Vulkan loader found no device\n  hint: install lavapipe: apt-get install mesa-vulkan-drivers");
+    }
+    let chosen = Device::new(&DeviceOptions::default()).ok();
+    for d in devices {
+        let mark = match &chosen {
+            Some(c) if c.info.index == d.index => "*",
+            _ => " ",
+        };
+        let usable = match &d.usable {
+            Ok(()) => String::new(),
+            Err(why) => format!("  (unusable: {why})"),
+        };
+        println!(
+            "{mark} [{}] {} — {}, Vulkan {}, {}{usable}",
+            d.index, d.name, d.kind, d.api_version, d.driver
+        );
+    }
+    println!("(* = picked by default; choose with --device INDEX or --device NAME)");
+    Ok(())
+}
+
+pub(crate) fn render(args: RenderArgs) -> Result<()> {
+    let scene = args.scene.clone().context("a scene is required")?;
+    let mut job = Job::new(scene);
+    job.output = args.output.clone();
+    job.export = args.export.clone();
+    job.device = args.gpu.options();
+    job.max_edge = args.mesh.max_edge;
+    job.mesher = args.mesh.mesher();
+    job.dm_res = args.mesh.dm_res;
+    job.wireframe = args.wireframe;
+    job.ambient = !args.no_ambient;
+    job.adaptive = args.adaptive;
+    job.tolerance = args.tolerance;
+    job.max_elements = args.max_elements;
+    job.check_mesh = !args.no_check_mesh;
+    job.solve = SolveSettings {
+        method: args.mesh.method()?,
+        hemicube_res: args.mesh.hemicube_res,
+        converge: args.converge,
+        max_shots: args.max_shots,
+    };
+    job.camera = CameraOverride {
+        eye: args.eye,
+        look_at: args.look_at,
+        up: args.up,
+        fov_y_deg: args.fov,
+    };
+    job.size = args.size;
+    job.exposure = args.exposure;
+
+    if let Some(report) = &args.report {
+        vkrad::app::check_output_path(report, &["json"])?;
+    }
+    install_interrupt_handler();
+    let mut progress = ProgressLine::new(
+        !args.quiet && std::io::stderr().is_terminal(),
+        args.converge,
+    );
+    let report = run(&job, None, |p| {
+        progress.update(p);
+        !INTERRUPTED.load(Ordering::SeqCst)
+    })?;
+    progress.clear();
+    if let Some(path) = &args.report {
+        vkrad::app::write_report(path, &report.to_json(&job))?;
+    }
+    if !args.quiet {
+        print_summary(&report, args.profile);
+        if let Some(path) = &args.report {
+            println!("  wrote     {}", path.display());
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn bench(args: BenchArgs) -> Result<()> {
+    if args.meshers {
+        let scene = args
+            .scenes
+            .first()
+            .cloned()
+            .unwrap_or_else(|| "simple".into());
+        let device = Device::new(&args.gpu.options())?;
+        let t = Instant::now();
+        let report = vkrad::bench::meshers::run_mesher_bench(
+            &device,
+            &scene,
+            args.quick,
+            &args.out_dir,
+            |line| eprintln!("  {line}"),
+        )?;
+        device.check_validation()?;
+        print_mesher_bench(&report, &device.info.name, t.elapsed().as_secs_f64());
+        return Ok(());
+    }
+    let options = vkrad::bench::BenchOptions {
+        scenes: args.scenes,
+        quick: args.quick,
+        out_dir: args.out_dir,
+        device: args.gpu.options(),
+        max_elements: args.max_elements,
+        refresh_reference: args.refresh_reference,
+    };
+    let report = vkrad::bench::run_bench(&options, |line| eprintln!("  {line}"))?;
+    print_bench(&report);
+    Ok(())
+}
+
+pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
+    vkrad::app::check_output_path(&args.output, &["obj", "ply"])?;
+    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let device = Device::new(&args.gpu.options())?;
+    let settings = MeshSettings {
+        mesher: args.mesh.mesher(),
+        max_edge: args
+            .mesh
+            .max_edge
+            .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene)),
+        dm_res: args.mesh.dm_res,
+    };
+    let (mesh, report) = build_mesh(&device, &scene, &settings)?;
+    check_mesh(&mesh, &scene, settings.mesher)?;
+    device.check_validation()?;
+    // Geometry only: the colour and radiosity fields are zero.
+    let zeros = vec![[0.0f32; 3]; mesh.vertices.len()];
+    vkrad::output::export_mesh(&args.output, &mesh, &zeros, 1.0)?;
+    println!(
+        "{}: {} patches -> {} elements, {} vertices; sanity check passed",
+        scene.source.display(),
+        scene.patches.len(),
+        mesh.elements.len(),
+        mesh.vertices.len()
+    );
+    print_mesh_report(&report);
+    println!("wrote {}", args.output.display());
+    Ok(())
+}
+
+pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
+    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let max_edge = args
+        .mesh
+        .max_edge
+        .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene));
+    let mesh = vkrad::mesh::uniform(&scene, max_edge);
+    let method = args.mesh.method()?;
+    let show_progress = std::io::stderr().is_terminal();
+    let progress = |done: usize, n: usize| {
+        if show_progress {
+            eprint!("\r  patch {done}/{n}   ");
+        }
+    };
+    let ff = match method {
+        FormFactorMethod::Hemicube => {
+            let device = Device::new(&args.gpu.options())?;
+            let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, progress)?;
+            device.check_validation()?;
+            ff
+        }
+        _ => patch_form_factors_cpu(&scene, &mesh, method, progress)?,
+    };
+    if show_progress {
+        eprint!("\r{:40}\r", "");
+    }
+    print_form_factors(&scene, &mesh, &ff.matrix, &args, method, max_edge)?;
+    Ok(())
+}

@@ -1,0 +1,85 @@
+//! What a user sees while a solve runs: a one-line progress display with an
+//! ETA, and Ctrl-C handling that still writes the best result so far.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Set by Ctrl-C: the solve stops after the current shot and the best image
+/// so far is still written. A second Ctrl-C exits at once.
+pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+pub(crate) fn install_interrupt_handler() {
+    let result = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            eprintln!("\ninterrupted twice: exiting without writing");
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the current shot, then writing the partial result (Ctrl-C again to abort)");
+    });
+    if let Err(e) = result {
+        eprintln!("warning: cannot install the Ctrl-C handler: {e}");
+    }
+}
+
+/// A one-line progress display on stderr (only on a terminal): shots,
+/// residual, speed and an ETA from the residual's recent decay rate.
+pub(crate) struct ProgressLine {
+    enabled: bool,
+    converge: f64,
+    start: Instant,
+    last_draw: Instant,
+    /// (shots, ln residual, seconds) some time ago, for the decay rate.
+    anchor: Option<(usize, f64, f64)>,
+}
+
+impl ProgressLine {
+    pub(crate) fn new(enabled: bool, converge: f64) -> Self {
+        let now = Instant::now();
+        ProgressLine {
+            enabled,
+            converge,
+            start: now,
+            last_draw: now,
+            anchor: None,
+        }
+    }
+
+    pub(crate) fn update(&mut self, p: &vkrad::solve::Progress) {
+        if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
+            return;
+        }
+        self.last_draw = Instant::now();
+        let t = self.start.elapsed().as_secs_f64();
+        let ln_r = p.residual.max(1e-300).ln();
+        let target = self.converge.max(1e-300).ln();
+        // Fraction done on a log scale: residual 1 -> 0, converge -> 1.
+        let done = (ln_r / target).clamp(0.0, 1.0);
+        let eta = match self.anchor {
+            Some((s0, ln0, t0)) if p.shots > s0 + 10 && ln_r < ln0 => {
+                let rate = (ln0 - ln_r) / (t - t0);
+                Some(((ln_r - target) / rate).max(0.0))
+            }
+            _ => None,
+        };
+        if self.anchor.is_none_or(|(_, _, t0)| t - t0 > 5.0) {
+            self.anchor = Some((p.shots, ln_r, t));
+        }
+        let width = 24;
+        let filled = (done * width as f64) as usize;
+        let eta = eta.map_or("--".into(), |e| format!("{e:.0} s"));
+        eprint!(
+            "\r  [{}{}] shot {:>7}  residual {:.2e}  {:.0} shots/s  ETA {eta}    ",
+            "#".repeat(filled),
+            ".".repeat(width - filled),
+            p.shots,
+            p.residual,
+            p.shots as f64 / t.max(1e-9),
+        );
+    }
+
+    pub(crate) fn clear(&self) {
+        if self.enabled {
+            eprint!("\r{:100}\r", "");
+        }
+    }
+}
