@@ -42,7 +42,7 @@ pub struct Job {
     /// ambient term added to the image.
     pub ambient: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): split
-    /// the elements whose interpolation error (see [`crate::refine`]) is
+    /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
     /// over `tolerance` x the mean radiosity, worst first and within
     /// `max_elements`, and solve again.
     pub adaptive: usize,

@@ -1,10 +1,10 @@
 //! Golden image of the built-in Cornell box. On failure the test writes
-//! `tests/golden/cornell-actual.png` and `cornell-diff.png` (differences x4).
+//! `tests/it/golden/cornell-actual.png` and `cornell-diff.png` (differences x4).
 //! After an intended change, look at the actual image, then re-bless:
 //!
-//!     VKRAD_BLESS_GOLDEN=1 cargo test --test golden
+//!     VKRAD_BLESS_GOLDEN=1 cargo test --test it golden::
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 
@@ -19,7 +19,7 @@ const EXPOSURE: f32 = 4.0;
 #[test]
 fn cornell_box_matches_golden_image() {
     let device = common::device();
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/golden");
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/it/golden");
     let out_dir = std::env::temp_dir().join(format!("vkrad-golden-{}", std::process::id()));
     std::fs::create_dir_all(&out_dir).unwrap();
 
@@ -47,7 +47,7 @@ fn cornell_box_matches_golden_image() {
         return;
     }
     let (gw, gh, golden) = load_png_rgb8(&golden_path).expect(
-        "tests/golden/cornell.png is missing; create it with VKRAD_BLESS_GOLDEN=1 cargo test --test golden",
+        "tests/it/golden/cornell.png is missing; create it with VKRAD_BLESS_GOLDEN=1 cargo test --test it golden::",
     );
     assert_eq!((w, h), (gw, gh), "image size differs from the golden image");
     let diff = compare_rgb8(&actual, &golden, 12);
@@ -66,7 +66,7 @@ fn cornell_box_matches_golden_image() {
     }
     assert!(
         ok,
-        "Cornell box differs from the golden image: mean |diff| {:.3}, max {}, {:.2}% of pixels over 12; wrote tests/golden/cornell-actual.png and cornell-diff.png",
+        "Cornell box differs from the golden image: mean |diff| {:.3}, max {}, {:.2}% of pixels over 12; wrote tests/it/golden/cornell-actual.png and cornell-diff.png",
         diff.mean_abs,
         diff.max_abs,
         100.0 * diff.frac_over

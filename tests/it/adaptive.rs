@@ -4,7 +4,7 @@
 //! refined discontinuity mesh's image is well closer to the reference than
 //! a uniform mesh's.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 

@@ -1,7 +1,7 @@
 //! `vkrad bench --quick` end to end: files, JSON contents, error trends,
 //! the reference cache, and no validation errors.
 
-mod common;
+use crate::common;
 
 use std::path::PathBuf;
 
@@ -160,7 +160,7 @@ fn quick_bench_writes_everything_and_errors_fall() {
 
 /// The full default sweep into `VKRAD_BENCH_OUT` (default `target/bench`;
 /// `VKRAD_BENCH_QUICK=1` for the quick one, without validation):
-/// `cargo test --release --test bench -- --ignored --nocapture`.
+/// `cargo test --release --test it bench:: -- --ignored --nocapture`.
 #[test]
 #[ignore = "minutes on lavapipe; run by hand"]
 fn default_sweep() {

@@ -3,7 +3,7 @@
 //! uniform meshes of equal size is measured (`vkrad bench --meshers`), not
 //! asserted.
 
-mod common;
+use crate::common;
 
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings, Mesher};
 

@@ -6,7 +6,7 @@
 //! by default (a few seconds); run it longer with e.g.
 //!
 //! ```sh
-//! PROPTEST_CASES=100000 cargo test --release --test fuzz_loader
+//! PROPTEST_CASES=100000 cargo test --release --test it fuzz_loader::
 //! ```
 //!
 //! Properties: the loader never panics; every error is an `Error::Scene`
@@ -22,8 +22,8 @@ use proptest::prelude::*;
 use vkrad::error::Error;
 use vkrad::scene::{load_from_str, Scene};
 
-const CORNELL_OBJ: &str = include_str!("../scenes/cornell.obj");
-const CORNELL_MTL: &str = include_str!("../scenes/cornell.mtl");
+const CORNELL_OBJ: &str = include_str!("../../scenes/cornell.obj");
+const CORNELL_MTL: &str = include_str!("../../scenes/cornell.mtl");
 
 /// Cases per property: 2000, or `PROPTEST_CASES`.
 fn config() -> ProptestConfig {

@@ -6,7 +6,7 @@
 //! bound, and prints the table that FORMFACTORS.md quotes:
 //!
 //! ```sh
-//! cargo test --release --test failure_modes -- --nocapture
+//! cargo test --release --test it failure_modes:: -- --nocapture
 //! ```
 //!
 //! 1. hemicube aliasing (small or distant receivers),
@@ -14,7 +14,7 @@
 //! 3. grazing angles (a receiver near the shooter's horizon),
 //! 4. few rays (the ray tracer's noise behind a partial blocker).
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

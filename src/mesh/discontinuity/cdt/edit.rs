@@ -1,133 +1,15 @@
-//! Constrained Delaunay triangulation of one target's arrangement (spade),
-//! and conforming longest-edge bisection on top.
+//! Edits of a patch's triangulation after the CDT: longest-edge
+//! subdivision to the maximum edge, and the sliver repair (flips, short-edge
+//! collapses, Steiner vertices) that keeps shadow lines from reading as
+//! T-junctions.
 
 use std::collections::HashMap;
 
 use glam::DVec2;
 
-use super::DiscontinuityStats;
-use spade::handles::FixedVertexHandle;
-use spade::{ConstrainedDelaunayTriangulation, Point2, Triangulation};
-
-use super::arrange::{share_edge, Arrangement, Tag};
-
-/// A triangulated target in scaled 2D coordinates.
-#[derive(Debug, Default)]
-pub(crate) struct Triangulated {
-    pub points: Vec<DVec2>,
-    pub tags: Vec<Tag>,
-    /// Counter-clockwise triangles.
-    pub triangles: Vec<[u32; 3]>,
-    /// Constraints spade refused (they would have crossed another).
-    pub dropped: usize,
-}
-
-type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
-
-/// Spade rejects coordinates of tiny non-zero magnitude.
-fn coord(x: f64) -> f64 {
-    if x.abs() < 1e-100 {
-        0.0
-    } else {
-        x
-    }
-}
-
-/// Triangulates the arrangement: its boundary chains and interior
-/// constraints as constraint edges; slivers along the boundary (all three
-/// corners on one boundary edge) and triangles outside the polygon dropped.
-/// `interior` = false leaves the interior constraints out (the fallback).
-pub(crate) fn triangulate(arr: &Arrangement, interior: bool) -> Result<Triangulated, String> {
-    let mut cdt = Cdt::new();
-    let mut handle_of: Vec<Option<FixedVertexHandle>> = Vec::with_capacity(arr.points.len());
-    for p in &arr.points {
-        let h = cdt.insert(Point2::new(coord(p.x), coord(p.y))).ok();
-        handle_of.push(h);
-    }
-    for (k, h) in handle_of.iter().enumerate().take(arr.poly.len()) {
-        if h.is_none() {
-            return Err(format!("corner {k} could not be triangulated"));
-        }
-    }
-    // Handle index -> the first arrangement vertex that made it.
-    let mut vertex_of: Vec<u32> = vec![u32::MAX; cdt.num_vertices()];
-    for (v, h) in handle_of.iter().enumerate() {
-        if let Some(h) = h {
-            if vertex_of[h.index()] == u32::MAX {
-                vertex_of[h.index()] = v as u32;
-            }
-        }
-    }
-    let mut dropped = 0;
-    let mut constrain = |cdt: &mut Cdt, a: u32, b: u32| {
-        if let (Some(ha), Some(hb)) = (handle_of[a as usize], handle_of[b as usize]) {
-            if ha != hb
-                && !cdt.exists_constraint(ha, hb)
-                && cdt.try_add_constraint(ha, hb).is_empty()
-            {
-                dropped += 1;
-            }
-        }
-    };
-    for k in 0..arr.poly.len() {
-        let chain = arr.edge_chain(k);
-        for w in chain.windows(2) {
-            constrain(&mut cdt, w[0].1, w[1].1);
-        }
-    }
-    if interior {
-        for &[a, b] in &arr.constraints {
-            constrain(&mut cdt, a, b);
-        }
-    }
-
-    let poly = &arr.poly;
-    let n = poly.len();
-    let mut out = Triangulated {
-        points: Vec::with_capacity(cdt.num_vertices()),
-        tags: Vec::with_capacity(cdt.num_vertices()),
-        triangles: Vec::new(),
-        dropped,
-    };
-    // Compact: only vertices that are in a kept triangle, in handle order.
-    let mut remap: Vec<u32> = vec![u32::MAX; cdt.num_vertices()];
-    for face in cdt.inner_faces() {
-        let hs = face.vertices().map(|v| v.fix().index());
-        let ids = hs.map(|h| vertex_of.get(h).copied().unwrap_or(u32::MAX));
-        if ids.contains(&u32::MAX) {
-            continue;
-        }
-        let tags = ids.map(|v| &arr.tags[v as usize]);
-        if share_edge(tags[0], tags[1])
-            && share_edge(tags[1], tags[2])
-            && tags[0]
-                .edges()
-                .any(|(k, _)| tags[1].on_edge(k) && tags[2].on_edge(k))
-        {
-            continue; // a sliver along one boundary edge
-        }
-        let pts = ids.map(|v| arr.points[v as usize]);
-        let centroid = (pts[0] + pts[1] + pts[2]) / 3.0;
-        let inside = (0..n).all(|k| {
-            let (a, b) = (poly[k], poly[(k + 1) % n]);
-            (b - a).perp_dot(centroid - a) >= -1e-12 * (b - a).length()
-        });
-        if !inside {
-            continue;
-        }
-        let mut tri = [0u32; 3];
-        for (slot, (&h, &v)) in tri.iter_mut().zip(hs.iter().zip(ids.iter())) {
-            if remap[h] == u32::MAX {
-                remap[h] = out.points.len() as u32;
-                out.points.push(arr.points[v as usize]);
-                out.tags.push(arr.tags[v as usize]);
-            }
-            *slot = remap[h];
-        }
-        out.triangles.push(tri);
-    }
-    Ok(out)
-}
+use super::Triangulated;
+use crate::mesh::discontinuity::arrange::{share_edge, Tag};
+use crate::mesh::discontinuity::project::segment_distance;
 
 /// Splits interior edges longer than `max_len` by Rivara's longest-edge
 /// propagation path bisection: a triangle's longest edge is split only
@@ -328,7 +210,7 @@ const COLLAPSE_SNAPS: f64 = 4.0;
 
 /// Twice the signed area over the longest edge: the smallest altitude of a
 /// counter-clockwise triangle (negative when clockwise, 0 when degenerate).
-fn min_altitude([p, q, s]: [DVec2; 3]) -> f64 {
+pub(super) fn min_altitude([p, q, s]: [DVec2; 3]) -> f64 {
     let twice = (q - p).perp_dot(s - p);
     let longest = p.distance(q).max(q.distance(s)).max(s.distance(p));
     if longest > 0.0 {
@@ -566,9 +448,7 @@ impl<'a> Editor<'a> {
         }
         let m = (self.points[e[0] as usize] + self.points[e[1] as usize]) * 0.5;
         let n = self.poly.len();
-        (0..n).any(|k| {
-            super::project::segment_distance(m, self.poly[k], self.poly[(k + 1) % n]).0 <= self.snap
-        })
+        (0..n).any(|k| segment_distance(m, self.poly[k], self.poly[(k + 1) % n]).0 <= self.snap)
     }
 
     /// Bisects edge `e` in every triangle that has it; returns the children.
@@ -679,77 +559,5 @@ impl<'a> Editor<'a> {
             }
         }
         children
-    }
-}
-
-/// Triangulates, catching a panic in the CDT as a last resort (then the
-/// patch is triangulated without its interior constraints, or not at all).
-pub(super) fn triangulate_guarded(
-    arr: &Arrangement,
-    stats: &mut DiscontinuityStats,
-) -> Option<Triangulated> {
-    let attempt = |interior: bool| {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| triangulate(arr, interior)))
-            .ok()
-            .and_then(Result::ok)
-            .filter(|t| !t.triangles.is_empty())
-    };
-    if let Some(t) = attempt(true) {
-        return Some(t);
-    }
-    stats.fallbacks += 1;
-    attempt(false)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A thin trapezoid (height just over the snap tolerance, a short top
-    /// side over a long base) has a vertex within the sliver tolerance of
-    /// a diagonal in both its triangulations; a Steiner vertex on the base
-    /// removes the sliver.
-    #[test]
-    fn thin_trapezoid_gets_a_steiner_vertex() {
-        let poly = vec![
-            DVec2::new(0.0, 0.0),
-            DVec2::new(1.0, 0.0),
-            DVec2::new(1.0, 1.0),
-            DVec2::new(0.0, 1.0),
-        ];
-        let snap = 1e-4;
-        let (y, h) = (0.5, 1.354e-4);
-        let corners = [
-            DVec2::new(0.2, y),
-            DVec2::new(0.347, y),
-            DVec2::new(0.2528, y + h),
-            DVec2::new(0.2505, y + h),
-        ];
-        let mut arr = Arrangement::new(&poly, snap);
-        let sides: Vec<(DVec2, DVec2)> =
-            (0..4).map(|k| (corners[k], corners[(k + 1) % 4])).collect();
-        arr.add_segments(&sides);
-        let mut tri = triangulate(&arr, true).expect("triangulates");
-        let tol = 0.3 * snap;
-        let worst = |tri: &Triangulated| {
-            tri.triangles
-                .iter()
-                .map(|t| min_altitude(t.map(|v| tri.points[v as usize])))
-                .fold(f64::INFINITY, f64::min)
-        };
-        assert!(worst(&tri) < tol, "the trapezoid is a sliver to begin with");
-        let before = tri.points.len();
-        assert!(fix_slivers(&mut tri, &poly, snap, tol) >= 2);
-        assert_eq!(tri.points.len(), before + 1, "one Steiner vertex");
-        assert!(worst(&tri) >= tol, "{}", worst(&tri));
-        let area: f64 = tri
-            .triangles
-            .iter()
-            .map(|t| {
-                let [p, q, s] = t.map(|v| tri.points[v as usize]);
-                0.5 * (q - p).perp_dot(s - p)
-            })
-            .sum();
-        assert!((area - 1.0).abs() < 1e-12, "{area}");
     }
 }

@@ -2,7 +2,7 @@
 //! a closed room of uniform reflectance reaches the energy balance
 //! E_avg = Phi / (A (1 - rho)) (mean irradiance).
 
-mod common;
+use crate::common;
 
 use common::*;
 use vkrad::solve::{solve, SolveSettings};

@@ -2,7 +2,7 @@
 //! buffers): finds the blockers that a CPU geometric test says must be
 //! there, skips targets the light cannot see, and is validation-clean.
 
-mod common;
+use crate::common;
 
 use glam::Vec3;
 use vkrad::mesh::discontinuity::visibility::gpu_blockers;

@@ -1,7 +1,7 @@
 //! GPU hemicube form factors against closed forms, reciprocity and closed
 //! rows (thesis 2.3.1, eq. 2.7).
 
-mod common;
+use crate::common;
 
 use common::*;
 use glam::{DVec3, Vec3};

@@ -1,7 +1,7 @@
 //! The committed SPIR-V in `spirv/` is exactly what glslang makes of `glsl/`,
 //! and passes `spirv-val`. To regenerate after editing a shader:
 //!
-//!     VKRAD_BLESS_SPIRV=1 cargo test --test shaders
+//!     VKRAD_BLESS_SPIRV=1 cargo test --test it shaders::
 //!
 //! (needs `glslangValidator` and `spirv-val`: apt-get install glslang-tools spirv-tools)
 
@@ -80,7 +80,7 @@ fn committed_spirv_matches_glsl() {
     std::fs::remove_dir_all(&tmp).ok();
     assert!(
         stale.is_empty(),
-        "committed SPIR-V is out of date: {stale:?}\n  regenerate: VKRAD_BLESS_SPIRV=1 cargo test --test shaders"
+        "committed SPIR-V is out of date: {stale:?}\n  regenerate: VKRAD_BLESS_SPIRV=1 cargo test --test it shaders::"
     );
 }
 

@@ -1,0 +1,20 @@
+//! vkrad's integration tests, one crate (one link on a 2-core machine
+//! instead of thirteen), one module per concern. Run one module with
+//! `cargo test --test it MODULE::`.
+
+mod common;
+
+mod adaptive;
+mod bad_scenes;
+mod bench;
+mod cli;
+mod device_faults;
+mod discontinuity;
+mod energy;
+mod failure_modes;
+mod formfactor_hemicube;
+mod fuzz_loader;
+mod golden;
+mod layout;
+mod shaders;
+mod visibility;
