@@ -40,30 +40,8 @@ pub fn render_lit_mesh(
     times: &mut StageTimes,
 ) -> Result<Vec<[f32; 4]>> {
     let extent = vk::Extent2D { width, height };
-    let color = Image::new(
-        device,
-        "final image",
-        COLOR_FORMAT,
-        extent,
-        vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
-        vk::ImageAspectFlags::COLOR,
-    )?;
-    let depth = Image::new(
-        device,
-        "final depth",
-        DEPTH_FORMAT,
-        extent,
-        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-        vk::ImageAspectFlags::DEPTH,
-    )?;
     let pixels = width as u64 * height as u64;
-    let readback = Buffer::new(
-        device,
-        "final image readback",
-        16 * pixels,
-        vk::BufferUsageFlags::TRANSFER_DST,
-        MemoryLocation::GpuToCpu,
-    )?;
+    let (color, depth, readback) = targets(device, extent)?;
     let vertices = upload(
         device,
         "lit mesh vertices",
@@ -117,6 +95,88 @@ pub fn render_lit_mesh(
     if let Some(p) = profiler.as_mut() {
         p.begin(cmd);
     }
+    to_attachment_layouts(device, cmd, &color, &depth);
+    let raw = &device.raw;
+    // SAFETY: cmd is recording; all handles live until after the fence wait.
+    unsafe {
+        begin_rendering(
+            device,
+            cmd,
+            extent,
+            (
+                color.view(),
+                vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            ),
+            depth.view(),
+            false,
+        );
+        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+        set_viewport(device, cmd, (0, 0, width, height));
+        raw.cmd_push_constants(
+            cmd,
+            bindings.layout,
+            vk::ShaderStageFlags::ALL,
+            0,
+            bytemuck::bytes_of(&view_proj.to_cols_array()),
+        );
+        raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
+        raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
+        if let Some((line_pipeline, line_vertices)) = &line_pass {
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
+            raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
+            raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
+        }
+        raw.cmd_end_rendering(cmd);
+    }
+    if let Some(p) = profiler.as_mut() {
+        p.stamp(cmd, "final render");
+    }
+    record_readback(device, cmd, &color, &readback, extent);
+    if let Some(p) = profiler.as_mut() {
+        p.stamp(cmd, "final readback");
+    }
+    cmds.end()?;
+    cmds.submit_and_wait()?;
+    if let Some(p) = &profiler {
+        p.collect(times)?;
+    }
+    readback.read(pixels as usize)
+}
+
+/// The colour and depth attachments of the final image, and the buffer the
+/// colour is read back through.
+fn targets(device: &Arc<Device>, extent: vk::Extent2D) -> Result<(Image, Image, Buffer)> {
+    let color = Image::new(
+        device,
+        "final image",
+        COLOR_FORMAT,
+        extent,
+        vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+        vk::ImageAspectFlags::COLOR,
+    )?;
+    let depth = Image::new(
+        device,
+        "final depth",
+        DEPTH_FORMAT,
+        extent,
+        vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        vk::ImageAspectFlags::DEPTH,
+    )?;
+    let pixels = extent.width as u64 * extent.height as u64;
+    let readback = Buffer::new(
+        device,
+        "final image readback",
+        16 * pixels,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuToCpu,
+    )?;
+    Ok((color, depth, readback))
+}
+
+/// Fresh attachments -> their layouts for clearing and drawing.
+fn to_attachment_layouts(device: &Device, cmd: vk::CommandBuffer, color: &Image, depth: &Image) {
     let none = (vk::PipelineStageFlags2::NONE, vk::AccessFlags2::NONE);
     barriers(
         device,
@@ -155,43 +215,17 @@ pub fn render_lit_mesh(
             ),
         ],
     );
+}
+
+/// Colour attachment -> the readback buffer, ready for the host.
+fn record_readback(
+    device: &Device,
+    cmd: vk::CommandBuffer,
+    color: &Image,
+    readback: &Buffer,
+    extent: vk::Extent2D,
+) {
     let raw = &device.raw;
-    // SAFETY: cmd is recording; all handles live until after the fence wait.
-    unsafe {
-        begin_rendering(
-            device,
-            cmd,
-            extent,
-            (
-                color.view(),
-                vk::ClearColorValue {
-                    float32: [0.0, 0.0, 0.0, 1.0],
-                },
-            ),
-            depth.view(),
-            false,
-        );
-        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
-        set_viewport(device, cmd, (0, 0, width, height));
-        raw.cmd_push_constants(
-            cmd,
-            bindings.layout,
-            vk::ShaderStageFlags::ALL,
-            0,
-            bytemuck::bytes_of(&view_proj.to_cols_array()),
-        );
-        raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
-        raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
-        if let Some((line_pipeline, line_vertices)) = &line_pass {
-            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
-            raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
-            raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
-        }
-        raw.cmd_end_rendering(cmd);
-    }
-    if let Some(p) = profiler.as_mut() {
-        p.stamp(cmd, "final render");
-    }
     barriers(
         device,
         cmd,
@@ -222,8 +256,8 @@ pub fn render_lit_mesh(
             layer_count: 1,
         })
         .image_extent(vk::Extent3D {
-            width,
-            height,
+            width: extent.width,
+            height: extent.height,
             depth: 1,
         });
     // SAFETY: the readback buffer holds width * height rgba32f texels.
@@ -250,13 +284,4 @@ pub fn render_lit_mesh(
         )],
         &[],
     );
-    if let Some(p) = profiler.as_mut() {
-        p.stamp(cmd, "final readback");
-    }
-    cmds.end()?;
-    cmds.submit_and_wait()?;
-    if let Some(p) = &profiler {
-        p.collect(times)?;
-    }
-    readback.read(pixels as usize)
 }

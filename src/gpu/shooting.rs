@@ -216,56 +216,10 @@ impl ShootingEngine {
             vk::ImageAspectFlags::DEPTH,
         )?;
 
-        let sb = vk::DescriptorType::STORAGE_BUFFER;
-        let bindings = Bindings::new(
-            device,
-            "hemicube bindings",
-            &[
-                (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER),
-                (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
-                (B_WEIGHTS, sb),
-                (B_FF, sb),
-                (B_ELEMENTS, sb),
-                (B_RADIOSITY, sb),
-                (B_UNSHOT, sb),
-            ],
-            4,
+        let bindings = bind_all(
+            device, &params, &item, &weights, &ff, &elements, &radiosity, &unshot,
         )?;
-        bindings.bind_buffer(B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER, params.raw());
-        bindings.bind_storage_image(B_ITEM, item.view());
-        bindings.bind_buffer(B_WEIGHTS, sb, weights.raw());
-        bindings.bind_buffer(B_FF, sb, ff.raw());
-        bindings.bind_buffer(B_ELEMENTS, sb, elements.raw());
-        bindings.bind_buffer(B_RADIOSITY, sb, radiosity.raw());
-        bindings.bind_buffer(B_UNSHOT, sb, unshot.raw());
-
-        let item_pipeline = Pipeline::graphics(
-            device,
-            "hemicube item buffer",
-            bindings.layout,
-            &GraphicsDesc {
-                vertex: shaders::HEMICUBE_VERT,
-                fragment: shaders::HEMICUBE_FRAG,
-                vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
-                attributes: &[
-                    (0, vk::Format::R32G32B32_SFLOAT, 0),
-                    (1, vk::Format::R32_UINT, 12),
-                ],
-                color_format: ITEM_FORMAT,
-                depth_format: DEPTH_FORMAT,
-                depth_compare: vk::CompareOp::GREATER,
-                stencil: None,
-                topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-            },
-        )?;
-        let reduce_pipeline = Pipeline::compute(
-            device,
-            "form-factor reduction",
-            bindings.layout,
-            shaders::FF_REDUCE_COMP,
-        )?;
-        let shoot_pipeline =
-            Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
+        let (item_pipeline, reduce_pipeline, shoot_pipeline) = pipelines(device, &bindings)?;
 
         let mut engine = ShootingEngine {
             device: device.clone(),
@@ -694,6 +648,75 @@ impl ShootingEngine {
         self.readback_cmds.submit_and_wait()?;
         self.readback.read(self.element_count as usize)
     }
+}
+
+/// The descriptor set every pass of the engine shares.
+#[allow(clippy::too_many_arguments)]
+fn bind_all(
+    device: &Arc<Device>,
+    params: &Buffer,
+    item: &Image,
+    weights: &Buffer,
+    ff: &Buffer,
+    elements: &Buffer,
+    radiosity: &Buffer,
+    unshot: &Buffer,
+) -> Result<Bindings> {
+    let sb = vk::DescriptorType::STORAGE_BUFFER;
+    let bindings = Bindings::new(
+        device,
+        "hemicube bindings",
+        &[
+            (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER),
+            (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
+            (B_WEIGHTS, sb),
+            (B_FF, sb),
+            (B_ELEMENTS, sb),
+            (B_RADIOSITY, sb),
+            (B_UNSHOT, sb),
+        ],
+        4,
+    )?;
+    bindings.bind_buffer(B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER, params.raw());
+    bindings.bind_storage_image(B_ITEM, item.view());
+    bindings.bind_buffer(B_WEIGHTS, sb, weights.raw());
+    bindings.bind_buffer(B_FF, sb, ff.raw());
+    bindings.bind_buffer(B_ELEMENTS, sb, elements.raw());
+    bindings.bind_buffer(B_RADIOSITY, sb, radiosity.raw());
+    bindings.bind_buffer(B_UNSHOT, sb, unshot.raw());
+    Ok(bindings)
+}
+
+/// The item-buffer, reduction and shooting pipelines.
+fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<(Pipeline, Pipeline, Pipeline)> {
+    let item_pipeline = Pipeline::graphics(
+        device,
+        "hemicube item buffer",
+        bindings.layout,
+        &GraphicsDesc {
+            vertex: shaders::HEMICUBE_VERT,
+            fragment: shaders::HEMICUBE_FRAG,
+            vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
+            attributes: &[
+                (0, vk::Format::R32G32B32_SFLOAT, 0),
+                (1, vk::Format::R32_UINT, 12),
+            ],
+            color_format: ITEM_FORMAT,
+            depth_format: DEPTH_FORMAT,
+            depth_compare: vk::CompareOp::GREATER,
+            stencil: None,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+        },
+    )?;
+    let reduce_pipeline = Pipeline::compute(
+        device,
+        "form-factor reduction",
+        bindings.layout,
+        shaders::FF_REDUCE_COMP,
+    )?;
+    let shoot_pipeline =
+        Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
+    Ok((item_pipeline, reduce_pipeline, shoot_pipeline))
 }
 
 #[cfg(test)]

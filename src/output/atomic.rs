@@ -1,36 +1,12 @@
-//! Whole-or-nothing file writes: write a temporary file next to the target,
-//! flush and fsync it, then rename it over the target.
+//! Whole-or-nothing file writes: a temporary file next to the target
+//! (`tempfile`: a unique name, removed when dropped on any error), flushed
+//! and fsynced, then renamed over the target.
 
-use std::fs::{File, OpenOptions};
+use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::error::{Error, Result};
-
-/// Removes the temporary file when dropped, unless disarmed after the rename.
-struct TempGuard {
-    path: PathBuf,
-    armed: bool,
-}
-
-impl Drop for TempGuard {
-    fn drop(&mut self) {
-        if self.armed {
-            // Best effort: the file may already be gone.
-            let _ = std::fs::remove_file(&self.path);
-        }
-    }
-}
-
-/// The temporary path used for `path`: `.NAME.tmp-PID` in the same directory.
-pub fn temp_path_for(path: &Path) -> Result<PathBuf> {
-    let name = path.file_name().ok_or_else(|| Error::Output {
-        path: path.to_path_buf(),
-        what: "the path does not name a file".to_owned(),
-    })?;
-    let tmp_name = format!(".{}.tmp-{}", name.to_string_lossy(), std::process::id());
-    Ok(parent_dir(path).join(tmp_name))
-}
 
 /// The directory `path` lives in (`.` for a bare file name).
 fn parent_dir(path: &Path) -> &Path {
@@ -42,7 +18,7 @@ fn parent_dir(path: &Path) -> &Path {
 
 /// Writes `path` whole or not at all.
 ///
-/// `write` fills a buffered temporary file `.NAME.tmp-PID` in the same
+/// `write` fills a buffered temporary file `.NAME.XXXXXX.tmp` in the same
 /// directory; it is then flushed, fsynced and renamed over `path`. On any
 /// error (including one returned by `write`) the temporary file is removed
 /// and `path` is left as it was.
@@ -57,36 +33,36 @@ pub fn write_atomically(
             what: format!("the directory {} does not exist", dir.display()),
         });
     }
-    let tmp = temp_path_for(path)?;
-    let file = OpenOptions::new()
-        .write(true)
-        .create(true)
-        .truncate(true)
-        .open(&tmp)
+    let name = path.file_name().ok_or_else(|| Error::Output {
+        path: path.to_path_buf(),
+        what: "the path does not name a file".to_owned(),
+    })?;
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{}.", name.to_string_lossy()))
+        .suffix(".tmp")
+        .tempfile_in(dir)
         .map_err(|e| Error::Output {
             path: path.to_path_buf(),
-            what: format!("cannot create temporary file {}: {e}", tmp.display()),
+            what: format!("cannot create a temporary file in {}: {e}", dir.display()),
         })?;
-    let mut guard = TempGuard {
-        path: tmp.clone(),
-        armed: true,
-    };
-
+    let tmp_path = tmp.path().to_path_buf();
+    let (file, tmp_path_guard) = tmp.into_parts();
     let mut writer = BufWriter::new(file);
     write(&mut writer)?;
-    writer.flush().map_err(|e| Error::io(&tmp, e))?;
+    writer.flush().map_err(|e| Error::io(&tmp_path, e))?;
     let file = writer
         .into_inner()
-        .map_err(|e| Error::io(&tmp, e.into_error()))?;
-    file.sync_all().map_err(|e| Error::io(&tmp, e))?;
+        .map_err(|e| Error::io(&tmp_path, e.into_error()))?;
+    file.sync_all().map_err(|e| Error::io(&tmp_path, e))?;
     drop(file);
-
-    std::fs::rename(&tmp, path).map_err(|e| Error::Output {
+    tmp_path_guard.persist(path).map_err(|e| Error::Output {
         path: path.to_path_buf(),
-        what: format!("cannot rename {} into place: {e}", tmp.display()),
+        what: format!(
+            "cannot rename {} into place: {}",
+            tmp_path.display(),
+            e.error
+        ),
     })?;
-    guard.armed = false;
-
     // Make the rename itself durable where the platform allows it.
     if let Ok(d) = File::open(dir) {
         let _ = d.sync_all();
@@ -96,6 +72,8 @@ pub fn write_atomically(
 
 #[cfg(test)]
 mod tests {
+    use std::path::PathBuf;
+
     use super::*;
 
     fn scratch_dir(name: &str) -> PathBuf {
@@ -189,16 +167,5 @@ mod tests {
         assert!(matches!(err, Error::Output { .. }), "{err:?}");
         assert_eq!(entries(&dir), vec!["sub".to_owned()]);
         std::fs::remove_dir_all(&dir).unwrap();
-    }
-
-    #[test]
-    fn temp_name_format() {
-        let t = temp_path_for(Path::new("a/b.png")).unwrap();
-        assert_eq!(
-            t,
-            Path::new("a").join(format!(".b.png.tmp-{}", std::process::id()))
-        );
-        let t = temp_path_for(Path::new("b.png")).unwrap();
-        assert_eq!(t.parent(), Some(Path::new(".")));
     }
 }

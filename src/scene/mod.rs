@@ -273,9 +273,56 @@ type MtlResolver<'a> = dyn Fn(&str) -> Result<(PathBuf, Option<String>)> + 'a;
 fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) -> Result<Scene> {
     let scan = objscan::scan(&source, obj)?;
     let mut warnings = Vec::new();
-    let at = |line: usize| format!("{}:{line}", source.display());
+    let (mut materials, defined_at) = read_materials(&scan, &source, resolve, &mut warnings)?;
+    if obj.trim().is_empty() {
+        return Err(Error::scene(
+            &source,
+            0,
+            "the file is empty",
+            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
+        ));
+    }
+    if scan.faces.is_empty() {
+        return Err(Error::scene(
+            &source,
+            0,
+            "the scene has no faces",
+            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
+        ));
+    }
 
-    // Materials of every mtllib, in order.
+    let patches = faces_to_patches(&scan, &source, &mut materials, &mut warnings)?;
+    check_emission(&patches, &materials, &defined_at, &source)?;
+
+    let mut scene = Scene {
+        name,
+        source,
+        patches,
+        materials,
+        camera: scan.camera.map(|(c, _)| c),
+        warnings,
+    };
+    let dark = emitters_lighting_nothing(&scene);
+    for (line, count) in dark {
+        scene.warnings.push(format!(
+            "{}:{line}: the emitter face on this line{} faces away from every other face: no light from it reaches the front of any surface (the image will be dark); check its vertex order (counter-clockwise seen from the front)",
+            scene.source.display(),
+            if count > 1 { format!(" ({count} pieces)") } else { String::new() }
+        ));
+    }
+    Ok(scene)
+}
+
+/// Materials, and the file and line where each was defined.
+type MaterialTable = (Vec<Material>, Vec<(PathBuf, usize)>);
+
+/// The materials of every `mtllib`, in order, and where each was defined.
+fn read_materials(
+    scan: &objscan::ObjScan,
+    source: &Path,
+    resolve: &MtlResolver,
+    warnings: &mut Vec<String>,
+) -> Result<MaterialTable> {
     let mut materials: Vec<Material> = Vec::new();
     let mut defined_at: Vec<(PathBuf, usize)> = Vec::new();
     let mut libs_read: Vec<&str> = Vec::new();
@@ -286,7 +333,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         libs_read.push(&lib.name);
         let (path, text) = resolve(&lib.name).map_err(|e| match e {
             Error::Io { path, cause: io } => Error::scene(
-                &source,
+                source,
                 lib.line,
                 format!(
                     "cannot read material library \"{}\" ({}): {io}",
@@ -299,7 +346,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         })?;
         let Some(text) = text else {
             return Err(Error::scene(
-                &source,
+                source,
                 lib.line,
                 format!(
                     "material library \"{}\" not found (looked for {})",
@@ -309,7 +356,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
                 Some("put the MTL file next to the OBJ file, or fix the file name in the `mtllib` line"),
             ));
         };
-        for entry in mtl::read(&path, &text, &mut warnings)? {
+        for entry in mtl::read(&path, &text, warnings)? {
             if let Some(i) = materials.iter().position(|m| m.name == entry.material.name) {
                 let (first_file, first_line) = &defined_at[i];
                 return Err(Error::scene(
@@ -328,23 +375,18 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         }
     }
 
-    if obj.trim().is_empty() {
-        return Err(Error::scene(
-            &source,
-            0,
-            "the file is empty",
-            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
-        ));
-    }
-    if scan.faces.is_empty() {
-        return Err(Error::scene(
-            &source,
-            0,
-            "the scene has no faces",
-            Some("an OBJ scene needs `v X Y Z` vertex lines and `f I J K ...` face lines"),
-        ));
-    }
+    Ok((materials, defined_at))
+}
 
+/// One patch per convex planar piece of every face, with its material
+/// (faces before any `usemtl` get a grey default, with a warning).
+fn faces_to_patches(
+    scan: &objscan::ObjScan,
+    source: &Path,
+    materials: &mut Vec<Material>,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Patch>> {
+    let at = |line: usize| format!("{}:{line}", source.display());
     // usemtl statement -> material index, resolved on first use by a face.
     let mut used: Vec<Option<usize>> = vec![None; scan.usemtls.len()];
     let mut default_material: Option<usize> = None;
@@ -365,7 +407,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
                             format!("it is not in {}", names.join(", "))
                         };
                         return Err(Error::scene(
-                            &source,
+                            source,
                             statement.line,
                             format!(
                                 "unknown material \"{}\" (used by the face on line {}): {libs}",
@@ -393,7 +435,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         };
         let vertices: Vec<DVec3> = face.vertices.iter().map(|&i| scan.positions[i]).collect();
         let outcome = polygon::process(&vertices)
-            .map_err(|r| Error::scene(&source, face.line, r.what, Some(r.hint)))?;
+            .map_err(|r| Error::scene(source, face.line, r.what, Some(r.hint)))?;
         for w in outcome.warnings {
             warnings.push(format!("{}: {w}", at(face.line)));
         }
@@ -416,6 +458,16 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         ));
     }
 
+    Ok(patches)
+}
+
+/// Some face emits, and the total emitted power fits single precision.
+fn check_emission(
+    patches: &[Patch],
+    materials: &[Material],
+    defined_at: &[(PathBuf, usize)],
+    source: &Path,
+) -> Result<()> {
     if !patches.iter().any(|p| materials[p.material].is_emitter()) {
         let what = match materials.iter().find(|m| m.is_emitter()) {
             Some(m) => format!(
@@ -425,7 +477,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
             None => "no emitter: no material has a positive Ke".to_owned(),
         };
         return Err(Error::scene(
-            &source,
+            source,
             0,
             what,
             Some("give a light material an emitted radiance in the MTL file, e.g. `Ke 10 10 10` after its `newmtl` line, and assign it to the light's faces with `usemtl`"),
@@ -435,7 +487,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
     // Emitted power pi * L_e * A must stay well inside single precision: the
     // solver sums and compares it per element.
     let mut power = vec![0.0f64; materials.len()];
-    for p in &patches {
+    for p in patches {
         let le = materials[p.material].emission.max_element();
         power[p.material] += std::f64::consts::PI * f64::from(le) * f64::from(p.area);
     }
@@ -446,7 +498,10 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
                 (0, f64::NEG_INFINITY),
                 |b, (i, &x)| if x > b.1 { (i, x) } else { b },
             );
-        let (file, line) = defined_at.get(m).cloned().unwrap_or((source.clone(), 0));
+        let (file, line) = defined_at
+            .get(m)
+            .cloned()
+            .unwrap_or((source.to_path_buf(), 0));
         return Err(Error::scene(
             &file,
             line,
@@ -458,23 +513,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         ));
     }
 
-    let mut scene = Scene {
-        name,
-        source,
-        patches,
-        materials,
-        camera: scan.camera.map(|(c, _)| c),
-        warnings,
-    };
-    let dark = emitters_lighting_nothing(&scene);
-    for (line, count) in dark {
-        scene.warnings.push(format!(
-            "{}:{line}: the emitter face on this line{} faces away from every other face: no light from it reaches the front of any surface (the image will be dark); check its vertex order (counter-clockwise seen from the front)",
-            scene.source.display(),
-            if count > 1 { format!(" ({count} pieces)") } else { String::new() }
-        ));
-    }
-    Ok(scene)
+    Ok(())
 }
 
 /// Total emitted power above which a scene is rejected (f32 max is 3.4e38).
