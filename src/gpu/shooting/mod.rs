@@ -17,10 +17,12 @@ use super::commands::{
 use super::context::Device;
 use super::item::{ItemVertex, ITEM_FORMAT, NO_ITEM};
 use super::memory::{upload, Buffer, Image};
-use super::pipeline::{Bindings, GraphicsDesc, Pipeline};
+use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
-use super::shaders;
 use crate::error::{Error, Result};
+
+mod setup;
+use setup::{bind_all, pipelines};
 
 /// Fixed-point scale of accumulated form factors: F = sum / 2^31
 /// (`FF_SCALE` in glsl/shot_params.glsl). A full hemicube sums to exactly
@@ -648,75 +650,6 @@ impl ShootingEngine {
         self.readback_cmds.submit_and_wait()?;
         self.readback.read(self.element_count as usize)
     }
-}
-
-/// The descriptor set every pass of the engine shares.
-#[allow(clippy::too_many_arguments)]
-fn bind_all(
-    device: &Arc<Device>,
-    params: &Buffer,
-    item: &Image,
-    weights: &Buffer,
-    ff: &Buffer,
-    elements: &Buffer,
-    radiosity: &Buffer,
-    unshot: &Buffer,
-) -> Result<Bindings> {
-    let sb = vk::DescriptorType::STORAGE_BUFFER;
-    let bindings = Bindings::new(
-        device,
-        "hemicube bindings",
-        &[
-            (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER),
-            (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
-            (B_WEIGHTS, sb),
-            (B_FF, sb),
-            (B_ELEMENTS, sb),
-            (B_RADIOSITY, sb),
-            (B_UNSHOT, sb),
-        ],
-        4,
-    )?;
-    bindings.bind_buffer(B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER, params.raw());
-    bindings.bind_storage_image(B_ITEM, item.view());
-    bindings.bind_buffer(B_WEIGHTS, sb, weights.raw());
-    bindings.bind_buffer(B_FF, sb, ff.raw());
-    bindings.bind_buffer(B_ELEMENTS, sb, elements.raw());
-    bindings.bind_buffer(B_RADIOSITY, sb, radiosity.raw());
-    bindings.bind_buffer(B_UNSHOT, sb, unshot.raw());
-    Ok(bindings)
-}
-
-/// The item-buffer, reduction and shooting pipelines.
-fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<(Pipeline, Pipeline, Pipeline)> {
-    let item_pipeline = Pipeline::graphics(
-        device,
-        "hemicube item buffer",
-        bindings.layout,
-        &GraphicsDesc {
-            vertex: shaders::HEMICUBE_VERT,
-            fragment: shaders::HEMICUBE_FRAG,
-            vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
-            attributes: &[
-                (0, vk::Format::R32G32B32_SFLOAT, 0),
-                (1, vk::Format::R32_UINT, 12),
-            ],
-            color_format: ITEM_FORMAT,
-            depth_format: DEPTH_FORMAT,
-            depth_compare: vk::CompareOp::GREATER,
-            stencil: None,
-            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-        },
-    )?;
-    let reduce_pipeline = Pipeline::compute(
-        device,
-        "form-factor reduction",
-        bindings.layout,
-        shaders::FF_REDUCE_COMP,
-    )?;
-    let shoot_pipeline =
-        Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
-    Ok((item_pipeline, reduce_pipeline, shoot_pipeline))
 }
 
 #[cfg(test)]
