@@ -2,7 +2,8 @@
 #extension GL_GOOGLE_include_directive : require
 // Progressive refinement shot (thesis fig. 8, lines 8-12), one invocation per
 // receiver j: dB_j = rho_j * F_ij * A_i / A_j * dB_i, added to the receiver's
-// radiosity and unshot radiosity. The shooter's unshot radiosity is zeroed.
+// radiosity and unshot radiosity. The shooter's unshot radiosity is zeroed
+// (every element of a shooting region: ranks shooter_ranks.x .. y).
 
 #include "shot_params.glsl"
 
@@ -13,13 +14,16 @@ layout(set = 0, binding = 3, std430) readonly buffer FormFactors { uint ff[]; };
 layout(set = 0, binding = 4, std430) readonly buffer Elements { vec4 reflectance_area[]; };
 layout(set = 0, binding = 5, std430) buffer Radiosity { vec4 radiosity[]; };
 layout(set = 0, binding = 6, std430) buffer Unshot { vec4 unshot[]; };
+// Position of every element in the shooting hierarchy's order.
+layout(set = 0, binding = 8, std430) readonly buffer Ranks { uint rank[]; };
 
 void main() {
     uint j = gl_GlobalInvocationID.x;
     if (j >= shot.element_count) {
         return;
     }
-    if (j == shot.shooter) {
+    uint r = rank[j];
+    if (r >= shot.shooter_ranks.x && r < shot.shooter_ranks.y) {
         unshot[j] = vec4(0.0);
         return;
     }
@@ -28,6 +32,13 @@ void main() {
         return;
     }
     float form_factor = float(fixed_ff) * FF_SCALE;
+    if (shot.mode == 1u) {
+        // A region shot: scale the corrected row to the hemicube's sum
+        // (ff_node.comp), so that it conserves energy.
+        uint hemicube_sum = ff[shot.element_count];
+        uint corrected_sum = ff[shot.element_count + 1u];
+        form_factor *= corrected_sum > 0u ? float(hemicube_sum) / float(corrected_sum) : 0.0;
+    }
     vec4 ra = reflectance_area[j];
     vec3 delta = ra.rgb * shot.shooter_unshot.rgb * (form_factor * shot.shooter_unshot.w / ra.w);
     radiosity[j].rgb += delta;

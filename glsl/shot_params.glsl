@@ -1,12 +1,28 @@
 // Per-shot parameters, written by the CPU before each submission
-// (std140; mirrors `ShotParams` in src/gpu/hemicube.rs).
+// (std140; mirrors `ShotParams` in src/gpu/shooting/mod.rs).
 layout(set = 0, binding = 0, std140) uniform ShotParams {
     // World -> clip for the five hemicube faces: top, then the four sides.
     mat4 face_view_proj[5];
-    // rgb: the shooter's unshot radiosity; w: the shooter's area.
+    // rgb: the shooter's unshot radiosity; w: the area of its elements.
     vec4 shooter_unshot;
     uint shooter;
     uint element_count;
+    // Form factors: 0 = the hemicube's own (element shots), 1 = exact x
+    // visibility from a region's outline (glsl/ff_node.comp).
+    uint mode;
+    // Item-buffer pixels of the hemicube (its resolution, for ff_node).
+    uint hemicube_pixels;
+    // The shooter's elements: ranks [x, y) (the shooting hierarchy's order).
+    uvec4 shooter_ranks;
+    // The shooting region (mode 1): outline corners (xyz), counter-clockwise
+    // seen from the front; how many in outline_count.
+    vec4 outline[8];
+    // xyz: the hemicube's position (the elements' centroid); w: the
+    // outline's radius around it.
+    vec4 centre_radius;
+    // xyz: the region's unit normal; w: the outline's area.
+    vec4 normal_area;
+    uint outline_count;
 } shot;
 
 // Item-buffer value of pixels that show no receiver (background or a back face).

@@ -43,7 +43,7 @@ use crate::mesh::{self, Mesh};
 use crate::output::image_io::HdrImage;
 use crate::render::{default_camera, render_image, vertex_radiance};
 use crate::scene::{self, Camera, Scene};
-use crate::solve::{solve, FormFactorMethod, SolveSettings};
+use crate::solve::{solve, FormFactorMethod, Shooting, SolveSettings};
 
 use reference::{CachedReference, CACHE_FORMAT};
 
@@ -429,6 +429,8 @@ fn settings(method: FormFactorMethod, hemicube_res: u32) -> SolveSettings {
         hemicube_res,
         converge: CONVERGE,
         max_shots: SolveSettings::default().max_shots,
+        // The bench compares form-factor methods shot for shot.
+        shooting: Shooting::Element,
     }
 }
 
@@ -497,6 +499,7 @@ fn scene_reference(
                 hemicube_res: CPU_METHOD_HEMICUBE_RES,
                 converge: REFERENCE_ANALYTIC_CONVERGE,
                 max_shots: 1_000_000,
+                shooting: Shooting::Element,
             },
             format!("analytic (unoccluded), converge {REFERENCE_ANALYTIC_CONVERGE:e}"),
         )
@@ -513,6 +516,7 @@ fn scene_reference(
                 hemicube_res: CPU_METHOD_HEMICUBE_RES,
                 converge: REFERENCE_HEMICUBE_CONVERGE,
                 max_shots: 1_000_000,
+                shooting: Shooting::Element,
             },
             format!(
                 "ray trace {} rays, converge {REFERENCE_HEMICUBE_CONVERGE:e}",

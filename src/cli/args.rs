@@ -9,7 +9,7 @@ use glam::Vec3;
 
 use vkrad::gpu::DeviceOptions;
 use vkrad::mesh::build::Mesher;
-use vkrad::solve::FormFactorMethod;
+use vkrad::solve::{FormFactorMethod, HierarchyRule, Shooting};
 
 #[derive(Parser)]
 #[command(
@@ -93,6 +93,21 @@ pub(crate) enum MesherArg {
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum ShootingArg {
+    Hierarchical,
+    Element,
+}
+
+impl ShootingArg {
+    pub(crate) fn shooting(self) -> Shooting {
+        match self {
+            ShootingArg::Hierarchical => Shooting::Hierarchical(HierarchyRule::default()),
+            ShootingArg::Element => Shooting::Element,
+        }
+    }
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
 pub(crate) enum FfArg {
     Hemicube,
     Raytrace,
@@ -139,6 +154,12 @@ pub(crate) struct RenderArgs {
     /// Stop after this many shots at the latest.
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub(crate) max_shots: usize,
+    /// Who shoots: regions of the shooting hierarchy (a patch, or part of
+    /// one, whose unshot light is even and not too strong, with exact
+    /// near-field form factors), or one element at a time (the classic
+    /// progressive refinement; always so with --ff raytrace|analytic).
+    #[arg(long, value_enum, default_value_t = ShootingArg::Hierarchical)]
+    pub(crate) shooting: ShootingArg,
     /// Camera position (with --look-at; default: the scene's camera or an automatic one).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
     pub(crate) eye: Option<Vec3>,

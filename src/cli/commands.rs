@@ -61,6 +61,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         hemicube_res: args.mesh.hemicube_res,
         converge: args.converge,
         max_shots: args.max_shots,
+        shooting: args.shooting.shooting(),
     };
     job.camera = CameraOverride {
         eye: args.eye,

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use super::heap::IndexedMaxHeap;
+use super::hierarchy::HierarchyRule;
 use super::shoot::{FormFactorMethod, GpuMesh, Shots};
 use super::solution::Solution;
 use crate::error::{Error, Result};
@@ -24,6 +25,21 @@ pub struct SolveSettings {
     pub converge: f64,
     /// Stop after this many shots at the latest.
     pub max_shots: usize,
+    /// Who shoots: regions of the shooting hierarchy, or single elements.
+    pub shooting: Shooting,
+}
+
+/// Who shoots in each shot.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shooting {
+    /// One element at a time, with the hemicube's form factors at its
+    /// centre (or the CPU method's): the classic progressive refinement.
+    Element,
+    /// The largest region of the shooting hierarchy around the element with
+    /// the most unshot power that `HierarchyRule` allows, with form factors
+    /// exact x visibility near it (hemicube only; the CPU methods shoot
+    /// element by element).
+    Hierarchical(HierarchyRule),
 }
 
 impl Default for SolveSettings {
@@ -33,6 +49,7 @@ impl Default for SolveSettings {
             hemicube_res: 256,
             converge: 1e-3,
             max_shots: 100_000,
+            shooting: Shooting::Hierarchical(HierarchyRule::default()),
         }
     }
 }
@@ -88,6 +105,10 @@ pub fn solve(
         return Err(Error::Invalid("the scene emits no power".into()));
     }
     let mut heap = IndexedMaxHeap::from_keys(keys);
+    let hierarchical = matches!(
+        (settings.shooting, settings.method),
+        (Shooting::Hierarchical(_), FormFactorMethod::Hemicube)
+    );
     let mut unshot_power = emitted_power;
     let mut residual_history = vec![1.0];
     let mut shots = 0;
@@ -106,8 +127,22 @@ pub fn solve(
             converged = true;
             break;
         }
-        let u = [unshot[shooter][0], unshot[shooter][1], unshot[shooter][2]];
-        let after = shots_engine.shoot(shooter, u, shots as u64)?;
+        let node = match (settings.shooting, settings.method) {
+            (Shooting::Hierarchical(rule), FormFactorMethod::Hemicube) => {
+                let emitter = scene
+                    .patch_material(mesh.elements[shooter].patch)
+                    .is_emitter();
+                shots_engine.tree().shooter(
+                    shooter as u32,
+                    emitter,
+                    &rule,
+                    |e| power(unshot[e as usize], areas[e as usize]),
+                    |e| areas[e as usize] as f64,
+                )
+            }
+            _ => shots_engine.tree().leaf[shooter],
+        };
+        let after = shots_engine.shoot(node, &unshot, shots as u64, hierarchical)?;
         // Re-key only what changed; sum the unshot power afresh so rounding
         // cannot drift.
         unshot_power = 0.0;

@@ -6,12 +6,15 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use crate::error::Result;
+use super::hierarchy::ShooterTree;
+use crate::error::{Error, Result};
 use crate::formfactor::analytic::element_and_vertex_form_factors_analytic;
 use crate::formfactor::hemicube::Hemicube;
 use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::item::ItemVertex;
-use crate::gpu::shooting::{fixed_point_weights, ShootingEngine, ShootingInputs};
+use crate::gpu::shooting::{
+    fixed_point_weights, ElementGeometry, Region, Shooter, ShootingEngine, ShootingInputs,
+};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -44,6 +47,9 @@ pub struct GpuMesh {
     pub triangles: Vec<ItemVertex>,
     pub reflectance_area: Vec<[f32; 4]>,
     pub emission: Vec<[f32; 4]>,
+    pub geometry: Vec<ElementGeometry>,
+    /// The shooting hierarchy (its order numbers the elements for the GPU).
+    pub tree: ShooterTree,
 }
 
 impl GpuMesh {
@@ -65,10 +71,27 @@ impl GpuMesh {
             // Emitted radiosity E = pi * L_e.
             emission.push((m.emission * std::f32::consts::PI).extend(0.0).to_array());
         }
+        let geometry = mesh
+            .elements
+            .iter()
+            .map(|e| {
+                let c = e.corners();
+                ElementGeometry {
+                    corners: std::array::from_fn(|k| {
+                        mesh.vertices[c[k.min(c.len() - 1)] as usize]
+                            .extend(0.0)
+                            .to_array()
+                    }),
+                    normal_count: e.normal.extend(c.len() as f32).to_array(),
+                }
+            })
+            .collect();
         GpuMesh {
             triangles,
             reflectance_area,
             emission,
+            geometry,
+            tree: ShooterTree::new(scene, mesh),
         }
     }
 
@@ -82,6 +105,8 @@ impl GpuMesh {
                 reflectance_area: &self.reflectance_area,
                 initial_radiosity: &self.emission,
                 weights: &weights,
+                geometry: &self.geometry,
+                ranks: &self.tree.rank,
                 atlas: hemicube.atlas_size(),
                 face_viewports: std::array::from_fn(|f| hemicube.face_viewport(f)),
             },
@@ -174,6 +199,7 @@ pub struct Shots<'a> {
     hemicube: Hemicube,
     engine: ShootingEngine,
     cpu: Option<CpuFormFactors<'a>>,
+    tree: ShooterTree,
     /// The patch of every vertex (vertices belong to one patch).
     vertex_patch: Vec<u32>,
     /// Radiosity at every vertex (CPU methods only: Wallace 1989).
@@ -211,38 +237,93 @@ impl<'a> Shots<'a> {
             hemicube,
             engine,
             cpu,
+            tree: gpu_mesh.tree.clone(),
             vertex_patch,
             vertex_radiosity,
             cpu_times: StageTimes::default(),
         })
     }
 
-    /// Shoots the unshot radiosity `unshot` (rgb) of element `shooter`;
-    /// `salt` varies the CPU methods' ray pattern per shot. Returns every
-    /// element's unshot radiosity after the shot (rgba, a unused).
-    pub fn shoot(&mut self, shooter: usize, unshot: [f32; 3], salt: u64) -> Result<Vec<[f32; 4]>> {
-        let e = &self.mesh.elements[shooter];
+    /// The shooting hierarchy over this mesh.
+    pub fn tree(&self) -> &ShooterTree {
+        &self.tree
+    }
+
+    /// Shoots node `node` of the shooting hierarchy: the mean unshot
+    /// radiosity of its elements (from `unshot`, every element's current
+    /// value) leaves its whole area. `region`: form factors are exact x
+    /// visibility from the node's outline (hierarchical shooting); else the
+    /// hemicube's own at its centre (element shooting, `node` a leaf).
+    /// `salt` varies the CPU methods' ray pattern per shot; they shoot
+    /// leaves only. Returns every element's unshot radiosity after the shot
+    /// (rgba, a unused).
+    pub fn shoot(
+        &mut self,
+        node: u32,
+        unshot: &[[f32; 4]],
+        salt: u64,
+        region: bool,
+    ) -> Result<Vec<[f32; 4]>> {
+        let n = &self.tree.nodes[node as usize];
+        let mut sum = [0.0f64; 3];
+        for &e in self.tree.elements(node) {
+            let a = self.mesh.elements[e as usize].area as f64;
+            for c in 0..3 {
+                sum[c] += unshot[e as usize][c] as f64 * a;
+            }
+        }
+        let area = n.area.max(f32::MIN_POSITIVE);
+        let mean = sum.map(|x| (x / area as f64) as f32);
+        let ranks = (n.range.start, n.range.end);
         let Some(cpu) = &self.cpu else {
             let faces = self
                 .hemicube
-                .face_view_proj(e.centre, e.normal, near_plane(e.area));
-            return self.engine.shoot(&faces, shooter as u32, unshot, e.area);
+                .face_view_proj(n.centre, n.normal, near_plane(area));
+            let region = region.then_some(Region {
+                outline: &n.polygon,
+                centre: n.centre,
+                radius: n.radius,
+                normal: n.normal,
+                outline_area: n.polygon_area,
+            });
+            return self.engine.shoot(&Shooter {
+                faces,
+                unshot: mean,
+                area: n.area,
+                ranks,
+                region,
+            });
+        };
+        let Some(shooter) = n.element else {
+            return Err(Error::Invalid(
+                "ray-traced and analytic form factors shoot element by element (--shooting element)"
+                    .into(),
+            ));
         };
         let t = Instant::now();
-        let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter, salt);
+        let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter as usize, salt);
         if let (Some(vb), Some(vff)) = (self.vertex_radiosity.as_mut(), vertex_ff) {
             // dB_v = rho_v F(v <- i) dB_i, at the vertices themselves.
             for (v, (b, f)) in vb.iter_mut().zip(vff).enumerate() {
                 if f > 0.0 {
                     let rho = self.scene.patch_material(self.vertex_patch[v]).reflectance;
                     for c in 0..3 {
-                        b[c] += rho[c] * f * unshot[c];
+                        b[c] += rho[c] * f * mean[c];
                     }
                 }
             }
         }
         self.cpu_times.add(cpu.stage_name(), t.elapsed());
-        self.engine.shoot_with(&ff, shooter as u32, unshot, e.area)
+        self.engine.shoot_with(
+            &ff,
+            &Shooter {
+                faces: [glam::Mat4::IDENTITY; 5],
+                unshot: mean,
+                area: n.area,
+                ranks,
+                region: None,
+            },
+        )
     }
 
     /// Every element's radiosity, the vertex radiosity of the CPU methods,

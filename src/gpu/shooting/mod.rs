@@ -1,8 +1,10 @@
-//! The hemicube passes: item buffer (5 faces into one atlas), form-factor
-//! reduction (compute, integer atomics) and shooting (compute), all on the
-//! GPU; the CPU only picks the shooter and reads unshot radiosity back.
+//! The shooting passes: hemicube item buffer (5 faces into one atlas),
+//! form-factor reduction (compute, integer atomics), the exact-times-
+//! visibility correction of a region shot (compute, `ff_node.comp`) and
+//! shooting (compute), all on the GPU; the CPU only picks the shooter and
+//! reads unshot radiosity back.
 //!
-//! Both command buffers are recorded once; a shot only rewrites the small
+//! The command buffers are recorded once; a shot only rewrites the small
 //! parameter block and resubmits.
 
 use std::sync::Arc;
@@ -43,11 +45,62 @@ pub fn fixed_point_weights(delta_form_factors: &[f64]) -> Vec<u32> {
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ShotParams {
     pub face_view_proj: [[f32; 16]; 5],
-    /// rgb: the shooter's unshot radiosity; w: its area.
+    /// rgb: the shooter's unshot radiosity; w: its elements' area.
     pub shooter_unshot: [f32; 4],
     pub shooter: u32,
     pub element_count: u32,
-    pub _pad: [u32; 2],
+    /// 0: the hemicube's form factors; 1: exact x visibility from `outline`.
+    pub mode: u32,
+    pub hemicube_pixels: u32,
+    /// The shooter's elements: ranks [x, y).
+    pub shooter_ranks: [u32; 4],
+    pub outline: [[f32; 4]; MAX_OUTLINE],
+    pub centre_radius: [f32; 4],
+    pub normal_area: [f32; 4],
+    pub outline_count: u32,
+    pub _pad: [u32; 3],
+}
+
+/// Corners of a shooting region's outline the shaders take (`outline[8]`).
+pub const MAX_OUTLINE: usize = 8;
+
+/// One element's geometry for `ff_node.comp`: corners (unused ones repeat
+/// the last), and (unit normal, corner count).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ElementGeometry {
+    pub corners: [[f32; 4]; 4],
+    pub normal_count: [f32; 4],
+}
+
+/// The shooter of one shot, as the passes see it.
+#[derive(Debug, Clone, Copy)]
+pub struct Shooter<'a> {
+    /// World -> clip of the five hemicube faces at its centre (unused when
+    /// the form factors come from the CPU).
+    pub faces: [glam::Mat4; 5],
+    /// Unshot radiosity (rgb) leaving it.
+    pub unshot: [f32; 3],
+    /// The area of its elements.
+    pub area: f32,
+    /// Its elements: ranks [start, end) in the order `ShootingInputs::ranks` numbers.
+    pub ranks: (u32, u32),
+    /// `Some` for a region shot: form factors are exact x visibility from
+    /// this outline (glsl/ff_node.comp); `None`: the hemicube's own.
+    pub region: Option<Region<'a>>,
+}
+
+/// A shooting region's outline (convex, counter-clockwise seen from the
+/// front, at most [`MAX_OUTLINE`] corners).
+#[derive(Debug, Clone, Copy)]
+pub struct Region<'a> {
+    pub outline: &'a [glam::Vec3],
+    /// Where the hemicube stands.
+    pub centre: glam::Vec3,
+    /// Largest distance from `centre` to a corner.
+    pub radius: f32,
+    pub normal: glam::Vec3,
+    pub outline_area: f32,
 }
 
 /// What the engine needs to know of the scene, as plain arrays.
@@ -60,6 +113,10 @@ pub struct ShootingInputs<'a> {
     pub initial_radiosity: &'a [[f32; 4]],
     /// Fixed-point delta form factor per atlas pixel, row-major.
     pub weights: &'a [u32],
+    /// Per element: corners and normal (region shots).
+    pub geometry: &'a [ElementGeometry],
+    /// Per element: its rank (position in the order shooters' ranges use).
+    pub ranks: &'a [u32],
     /// Atlas (width, height).
     pub atlas: (u32, u32),
     /// Viewport (x, y, w, h) of each face in the atlas.
@@ -78,6 +135,8 @@ const B_FF: u32 = 3;
 const B_ELEMENTS: u32 = 4;
 const B_RADIOSITY: u32 = 5;
 const B_UNSHOT: u32 = 6;
+const B_GEOMETRY: u32 = 7;
+const B_RANKS: u32 = 8;
 
 #[derive(Clone, Copy)]
 enum Submission {
@@ -113,11 +172,14 @@ pub struct ShootingEngine {
     _vertices: Buffer,
     _weights: Buffer,
     _elements: Buffer,
+    _geometry: Buffer,
+    _ranks: Buffer,
     item: Image,
     depth: Image,
     bindings: Bindings,
     item_pipeline: Pipeline,
     reduce_pipeline: Pipeline,
+    region_pipeline: Pipeline,
     shoot_pipeline: Pipeline,
     shoot_cmds: Commands,
     ff_cmds: Commands,
@@ -157,6 +219,8 @@ impl ShootingEngine {
             inputs.reflectance_area,
             storage,
         )?;
+        let geometry = upload(device, "element geometry", inputs.geometry, storage)?;
+        let ranks = upload(device, "element ranks", inputs.ranks, storage)?;
         let radiosity = upload(
             device,
             "element radiosity",
@@ -169,10 +233,12 @@ impl ShootingEngine {
             inputs.initial_radiosity,
             storage | src,
         )?;
+        // One u32 per element, then the region shot's two row sums
+        // (glsl/ff_node.comp); all cleared with the item buffer.
         let ff = Buffer::new(
             device,
             "element form factors (fixed point)",
-            4 * n as u64,
+            4 * (n as u64 + 2),
             storage | dst | src,
             MemoryLocation::GpuOnly,
         )?;
@@ -219,9 +285,21 @@ impl ShootingEngine {
         )?;
 
         let bindings = bind_all(
-            device, &params, &item, &weights, &ff, &elements, &radiosity, &unshot,
+            device,
+            &item,
+            &[
+                (B_PARAMS, &params),
+                (B_WEIGHTS, &weights),
+                (B_FF, &ff),
+                (B_ELEMENTS, &elements),
+                (B_RADIOSITY, &radiosity),
+                (B_UNSHOT, &unshot),
+                (B_GEOMETRY, &geometry),
+                (B_RANKS, &ranks),
+            ],
         )?;
-        let (item_pipeline, reduce_pipeline, shoot_pipeline) = pipelines(device, &bindings)?;
+        let [item_pipeline, reduce_pipeline, region_pipeline, shoot_pipeline] =
+            pipelines(device, &bindings)?;
 
         let mut engine = ShootingEngine {
             device: device.clone(),
@@ -238,11 +316,14 @@ impl ShootingEngine {
             _vertices: vertices,
             _weights: weights,
             _elements: elements,
+            _geometry: geometry,
+            _ranks: ranks,
             item,
             depth,
             bindings,
             item_pipeline,
             reduce_pipeline,
+            region_pipeline,
             shoot_pipeline,
             shoot_cmds: Commands::new(device, "shoot commands")?,
             ff_cmds: Commands::new(device, "form-factor commands")?,
@@ -354,7 +435,29 @@ impl ShootingEngine {
         self.record_hemicube(cmd, &mut profiler);
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
-        // Reduction atomics -> shooting read of ff.
+        let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
+        barriers(
+            &self.device,
+            cmd,
+            // Reduction atomics -> region correction read/write of ff.
+            &[buffer_barrier(self.ff.raw(), compute, compute)],
+            &[],
+        );
+        // SAFETY: cmd is recording; handles owned by self. The shader
+        // returns at once for element shots (mode 0).
+        unsafe {
+            let raw = &self.device.raw;
+            raw.cmd_bind_pipeline(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.region_pipeline.raw,
+            );
+            raw.cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "region form factors");
+        }
+        // Region correction writes -> shooting read of ff.
         self.record_shooting(
             cmd,
             &mut profiler,
@@ -537,48 +640,53 @@ impl ShootingEngine {
         );
     }
 
-    fn write_params(
-        &mut self,
-        face_view_proj: &[glam::Mat4; 5],
-        shooter: u32,
-        shooter_unshot: [f32; 4],
-    ) -> Result<()> {
-        let params = ShotParams {
-            face_view_proj: face_view_proj.map(|m| m.to_cols_array()),
-            shooter_unshot,
-            shooter,
+    fn write_params(&mut self, shooter: &Shooter) -> Result<()> {
+        let [r, g, b] = shooter.unshot;
+        let mut params = ShotParams {
+            face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
+            shooter_unshot: [r, g, b, shooter.area],
+            shooter: shooter.ranks.0,
             element_count: self.element_count,
-            _pad: [0; 2],
+            mode: 0,
+            hemicube_pixels: self.atlas.0 * self.atlas.1,
+            shooter_ranks: [shooter.ranks.0, shooter.ranks.1, 0, 0],
+            outline: [[0.0; 4]; MAX_OUTLINE],
+            centre_radius: [0.0; 4],
+            normal_area: [0.0; 4],
+            outline_count: 0,
+            _pad: [0; 3],
         };
+        if let Some(region) = &shooter.region {
+            if region.outline.len() < 3 || region.outline.len() > MAX_OUTLINE {
+                return Err(Error::Invalid(format!(
+                    "a shooting region needs 3 to {MAX_OUTLINE} corners, got {}",
+                    region.outline.len()
+                )));
+            }
+            params.mode = 1;
+            for (slot, v) in params.outline.iter_mut().zip(region.outline) {
+                *slot = v.extend(0.0).to_array();
+            }
+            params.outline_count = region.outline.len() as u32;
+            params.centre_radius = region.centre.extend(region.radius).to_array();
+            params.normal_area = region.normal.extend(region.outline_area).to_array();
+        }
         self.params.write(0, &[params])
     }
 
-    /// One progressive-refinement shot from element `shooter` whose unshot
-    /// radiosity is `unshot_rgb` and area `area`, with form factors from the
-    /// GPU hemicube. Returns every element's unshot radiosity after the shot
-    /// (rgba, a unused).
-    pub fn shoot(
-        &mut self,
-        face_view_proj: &[glam::Mat4; 5],
-        shooter: u32,
-        unshot_rgb: [f32; 3],
-        area: f32,
-    ) -> Result<Vec<[f32; 4]>> {
-        let [r, g, b] = unshot_rgb;
-        self.write_params(face_view_proj, shooter, [r, g, b, area])?;
+    /// One progressive-refinement shot with form factors from the GPU
+    /// hemicube at the shooter's centre (corrected near a region shooter).
+    /// Returns every element's unshot radiosity after the shot (rgba, a
+    /// unused).
+    pub fn shoot(&mut self, shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
+        self.write_params(shooter)?;
         self.submit(Submission::Shoot)?;
         self.readback.read(self.element_count as usize)
     }
 
     /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
     /// were computed on the CPU (`form_factors`, one per element).
-    pub fn shoot_with(
-        &mut self,
-        form_factors: &[f32],
-        shooter: u32,
-        unshot_rgb: [f32; 3],
-        area: f32,
-    ) -> Result<Vec<[f32; 4]>> {
+    pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
         if form_factors.len() != self.element_count as usize {
             return Err(Error::Invalid(format!(
                 "{} form factors for {} elements",
@@ -586,15 +694,20 @@ impl ShootingEngine {
                 self.element_count
             )));
         }
-        let one = FF_FIXED_ONE;
         // Same fixed point as the hemicube reduction; u32 holds up to F = 2.
         let fixed: Vec<u32> = form_factors
             .iter()
-            .map(|&f| (f.max(0.0) as f64 * one).round().min(u32::MAX as f64) as u32)
+            .map(|&f| {
+                (f.max(0.0) as f64 * FF_FIXED_ONE)
+                    .round()
+                    .min(u32::MAX as f64) as u32
+            })
             .collect();
         self.ff_upload.write(0, &fixed)?;
-        let [r, g, b] = unshot_rgb;
-        self.write_params(&[glam::Mat4::IDENTITY; 5], shooter, [r, g, b, area])?;
+        self.write_params(&Shooter {
+            region: None,
+            ..*shooter
+        })?;
         self.submit(Submission::UploadShoot)?;
         self.readback.read(self.element_count as usize)
     }
@@ -602,7 +715,13 @@ impl ShootingEngine {
     /// Form factors F(point -> element) from a hemicube at the given frame,
     /// for every element (no shooting).
     pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
-        self.write_params(face_view_proj, u32::MAX, [0.0; 4])?;
+        self.write_params(&Shooter {
+            faces: *face_view_proj,
+            unshot: [0.0; 3],
+            area: 0.0,
+            ranks: (u32::MAX, u32::MAX),
+            region: None,
+        })?;
         self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
         Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())

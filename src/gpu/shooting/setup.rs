@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{B_ELEMENTS, B_FF, B_ITEM, B_PARAMS, B_RADIOSITY, B_UNSHOT, B_WEIGHTS, DEPTH_FORMAT};
+use super::{B_ITEM, B_PARAMS, DEPTH_FORMAT};
 use crate::error::Result;
 use crate::gpu::context::Device;
 use crate::gpu::item::{ItemVertex, ITEM_FORMAT};
@@ -12,48 +12,33 @@ use crate::gpu::memory::{Buffer, Image};
 use crate::gpu::pipeline::{Bindings, GraphicsDesc, Pipeline};
 use crate::gpu::shaders;
 
-/// The descriptor set every pass of the engine shares.
-#[allow(clippy::too_many_arguments)]
+/// The descriptor set every pass of the engine shares: the item buffer and
+/// `(binding, buffer)` for the rest (binding 0 is the uniform parameters).
 pub(super) fn bind_all(
     device: &Arc<Device>,
-    params: &Buffer,
     item: &Image,
-    weights: &Buffer,
-    ff: &Buffer,
-    elements: &Buffer,
-    radiosity: &Buffer,
-    unshot: &Buffer,
+    buffers: &[(u32, &Buffer)],
 ) -> Result<Bindings> {
-    let sb = vk::DescriptorType::STORAGE_BUFFER;
-    let bindings = Bindings::new(
-        device,
-        "hemicube bindings",
-        &[
-            (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER),
-            (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
-            (B_WEIGHTS, sb),
-            (B_FF, sb),
-            (B_ELEMENTS, sb),
-            (B_RADIOSITY, sb),
-            (B_UNSHOT, sb),
-        ],
-        4,
-    )?;
-    bindings.bind_buffer(B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER, params.raw());
+    let kind = |binding: u32| {
+        if binding == B_PARAMS {
+            vk::DescriptorType::UNIFORM_BUFFER
+        } else {
+            vk::DescriptorType::STORAGE_BUFFER
+        }
+    };
+    let mut layout: Vec<(u32, vk::DescriptorType)> =
+        vec![(B_ITEM, vk::DescriptorType::STORAGE_IMAGE)];
+    layout.extend(buffers.iter().map(|&(b, _)| (b, kind(b))));
+    let bindings = Bindings::new(device, "shooting bindings", &layout, 4)?;
     bindings.bind_storage_image(B_ITEM, item.view());
-    bindings.bind_buffer(B_WEIGHTS, sb, weights.raw());
-    bindings.bind_buffer(B_FF, sb, ff.raw());
-    bindings.bind_buffer(B_ELEMENTS, sb, elements.raw());
-    bindings.bind_buffer(B_RADIOSITY, sb, radiosity.raw());
-    bindings.bind_buffer(B_UNSHOT, sb, unshot.raw());
+    for &(b, buffer) in buffers {
+        bindings.bind_buffer(b, kind(b), buffer.raw());
+    }
     Ok(bindings)
 }
 
-/// The item-buffer, reduction and shooting pipelines.
-pub(super) fn pipelines(
-    device: &Arc<Device>,
-    bindings: &Bindings,
-) -> Result<(Pipeline, Pipeline, Pipeline)> {
+/// The item-buffer, reduction, region-correction and shooting pipelines.
+pub(super) fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<[Pipeline; 4]> {
     let item_pipeline = Pipeline::graphics(
         device,
         "hemicube item buffer",
@@ -79,7 +64,18 @@ pub(super) fn pipelines(
         bindings.layout,
         shaders::FF_REDUCE_COMP,
     )?;
+    let region_pipeline = Pipeline::compute(
+        device,
+        "region form factors",
+        bindings.layout,
+        shaders::FF_NODE_COMP,
+    )?;
     let shoot_pipeline =
         Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
-    Ok((item_pipeline, reduce_pipeline, shoot_pipeline))
+    Ok([
+        item_pipeline,
+        reduce_pipeline,
+        region_pipeline,
+        shoot_pipeline,
+    ])
 }

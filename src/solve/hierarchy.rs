@@ -1,0 +1,407 @@
+//! The shooting hierarchy (substructuring, Cohen et al. 1986): every
+//! patch's elements grouped into a tree of convex regions, so that a shot
+//! can leave from a whole region (a "node") instead of one element.
+//! Receivers stay the leaf elements.
+//!
+//! The tree follows the uniform mesher's own subdivision (a quad splits
+//! into four bilinear sub-quads, a triangle into four midpoint triangles, a
+//! larger convex polygon into the fan triangles from its first vertex), so
+//! on a uniform mesh every node is exactly the union of its elements. Other
+//! meshes (discontinuity) give each element to the region that contains its
+//! centroid; a node's outline is then its region, close to but not exactly
+//! its elements' union, and shots normalise by both areas (see
+//! `glsl/ff_node.comp`).
+//!
+//! Elements are listed in depth-first order (`order`), so a node's elements
+//! are the contiguous run `order[range]`, and membership is a range test on
+//! an element's `rank`.
+
+use std::ops::Range;
+
+use glam::Vec3;
+
+use crate::geom::newell;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+
+/// The most corners a node may have to shoot as a whole (the size of the
+/// outline in `glsl/shot_params.glsl`). Larger input polygons shoot as their
+/// fan triangles or elements.
+pub const MAX_NODE_VERTICES: usize = 8;
+
+/// Subdivision depth at which a region stops splitting; the elements left
+/// in it become its direct children.
+const MAX_DEPTH: u32 = 16;
+
+/// One node of the shooting hierarchy.
+#[derive(Debug, Clone)]
+pub struct Node {
+    pub patch: u32,
+    /// `u32::MAX` for a patch's root.
+    pub parent: u32,
+    /// Convex outline, counter-clockwise seen from the front.
+    pub polygon: Vec<Vec3>,
+    /// Area of `polygon`.
+    pub polygon_area: f32,
+    /// This node's elements: `ShooterTree::order[range]`.
+    pub range: Range<u32>,
+    /// Total area of its elements.
+    pub area: f32,
+    /// Area-weighted centroid of its elements.
+    pub centre: Vec3,
+    pub normal: Vec3,
+    /// Largest distance from `centre` to a corner of `polygon`.
+    pub radius: f32,
+    /// The element, for a leaf.
+    pub element: Option<u32>,
+}
+
+/// Every patch's tree of nodes.
+#[derive(Debug, Clone)]
+pub struct ShooterTree {
+    pub nodes: Vec<Node>,
+    /// Elements in depth-first order.
+    pub order: Vec<u32>,
+    /// Position of every element in `order`.
+    pub rank: Vec<u32>,
+    /// The leaf node of every element.
+    pub leaf: Vec<u32>,
+}
+
+impl ShooterTree {
+    pub fn new(scene: &Scene, mesh: &Mesh) -> Self {
+        let mut tree = ShooterTree {
+            nodes: Vec::new(),
+            order: Vec::with_capacity(mesh.elements.len()),
+            rank: vec![0; mesh.elements.len()],
+            leaf: vec![0; mesh.elements.len()],
+        };
+        for (p, range) in mesh.patch_elements.iter().enumerate() {
+            let elements: Vec<u32> = range.clone().collect();
+            if elements.is_empty() {
+                continue;
+            }
+            let polygon = scene.patches[p].vertices.clone();
+            tree.region(mesh, p as u32, u32::MAX, polygon, &elements, 0);
+        }
+        for (k, &e) in tree.order.iter().enumerate() {
+            tree.rank[e as usize] = k as u32;
+        }
+        tree
+    }
+
+    /// Adds the node for `polygon` holding `elements`, and its subtree;
+    /// returns its index.
+    fn region(
+        &mut self,
+        mesh: &Mesh,
+        patch: u32,
+        parent: u32,
+        polygon: Vec<Vec3>,
+        elements: &[u32],
+        depth: u32,
+    ) -> u32 {
+        if let [e] = elements {
+            return self.element_leaf(mesh, patch, parent, *e);
+        }
+        let id = self.push(mesh, patch, parent, polygon.clone(), None);
+        let start = self.order.len() as u32;
+        let children = if depth < MAX_DEPTH {
+            subdivide(&polygon)
+        } else {
+            Vec::new()
+        };
+        if children.is_empty() {
+            for &e in elements {
+                self.element_leaf(mesh, patch, id, e);
+            }
+        } else {
+            let normal = mesh.elements[elements[0] as usize].normal;
+            let mut groups: Vec<Vec<u32>> = vec![Vec::new(); children.len()];
+            for &e in elements {
+                let c = mesh.elements[e as usize].centre;
+                groups[containing(&children, normal, c)].push(e);
+            }
+            for (child, group) in children.into_iter().zip(groups) {
+                if !group.is_empty() {
+                    self.region(mesh, patch, id, child, &group, depth + 1);
+                }
+            }
+        }
+        let end = self.order.len() as u32;
+        self.finish(mesh, id, start..end);
+        id
+    }
+
+    fn element_leaf(&mut self, mesh: &Mesh, patch: u32, parent: u32, e: u32) -> u32 {
+        let el = &mesh.elements[e as usize];
+        let polygon = el
+            .corners()
+            .iter()
+            .map(|&v| mesh.vertices[v as usize])
+            .collect();
+        let id = self.push(mesh, patch, parent, polygon, Some(e));
+        let start = self.order.len() as u32;
+        self.order.push(e);
+        self.leaf[e as usize] = id;
+        self.finish(mesh, id, start..start + 1);
+        id
+    }
+
+    fn push(
+        &mut self,
+        mesh: &Mesh,
+        patch: u32,
+        parent: u32,
+        polygon: Vec<Vec3>,
+        element: Option<u32>,
+    ) -> u32 {
+        let dpoly: Vec<glam::DVec3> = polygon.iter().map(|v| v.as_dvec3()).collect();
+        let polygon_area = (0.5 * newell(&dpoly).length()) as f32;
+        let normal = match element {
+            Some(e) => mesh.elements[e as usize].normal,
+            None => newell(&dpoly).normalize_or_zero().as_vec3(),
+        };
+        self.nodes.push(Node {
+            patch,
+            parent,
+            polygon,
+            polygon_area,
+            range: 0..0,
+            area: 0.0,
+            centre: Vec3::ZERO,
+            normal,
+            radius: 0.0,
+            element,
+        });
+        (self.nodes.len() - 1) as u32
+    }
+
+    /// Sets a node's range and the statistics of its elements.
+    fn finish(&mut self, mesh: &Mesh, id: u32, range: Range<u32>) {
+        let (mut area, mut weighted) = (0.0f64, glam::DVec3::ZERO);
+        for &e in &self.order[range.start as usize..range.end as usize] {
+            let el = &mesh.elements[e as usize];
+            area += el.area as f64;
+            weighted += el.centre.as_dvec3() * el.area as f64;
+        }
+        let node = &mut self.nodes[id as usize];
+        node.range = range;
+        node.area = area as f32;
+        node.centre = if area > 0.0 {
+            (weighted / area).as_vec3()
+        } else {
+            node.polygon.iter().copied().sum::<Vec3>() / node.polygon.len().max(1) as f32
+        };
+        node.radius = node
+            .polygon
+            .iter()
+            .map(|v| v.distance(node.centre))
+            .fold(0.0, f32::max);
+    }
+
+    /// The elements of node `n`.
+    pub fn elements(&self, n: u32) -> &[u32] {
+        let r = &self.nodes[n as usize].range;
+        &self.order[r.start as usize..r.end as usize]
+    }
+
+    /// The region that shoots for element `top`, the element with the most
+    /// unshot power: the highest ancestor of its leaf (up to its patch)
+    /// whose shot carries at most `max_gain` times `top`'s power and whose
+    /// elements' unshot radiosity stays within a factor `uniformity` of the
+    /// region's mean, so that the region's light is spread about evenly
+    /// over it. Emitters
+    /// shoot element by element (their shadows need the area sampled).
+    /// `power(e)` is an element's unshot power.
+    pub fn shooter(
+        &self,
+        top: u32,
+        emitter: bool,
+        rule: &HierarchyRule,
+        power: impl Fn(u32) -> f64,
+        area: impl Fn(u32) -> f64,
+    ) -> u32 {
+        let leaf = self.leaf[top as usize];
+        if emitter {
+            return leaf;
+        }
+        let top_power = power(top);
+        let top_radiosity = top_power / area(top).max(f64::MIN_POSITIVE);
+        let mut best = leaf;
+        let mut n = self.nodes[leaf as usize].parent;
+        while n != u32::MAX {
+            let node = &self.nodes[n as usize];
+            if node.polygon.len() <= MAX_NODE_VERTICES {
+                let (mut total, mut dimmest) = (0.0f64, f64::INFINITY);
+                for &e in self.elements(n) {
+                    let p = power(e);
+                    total += p;
+                    dimmest = dimmest.min(p / area(e).max(f64::MIN_POSITIVE));
+                }
+                if total > rule.max_gain * top_power {
+                    break;
+                }
+                let mean = total / (node.area as f64).max(f64::MIN_POSITIVE);
+                // Even light: no element far above or below the mean (a region
+                // half in shadow, say under a box, would place its hemicube
+                // where little of its light leaves from).
+                if top_radiosity > rule.uniformity * mean || dimmest * rule.uniformity < mean {
+                    break;
+                }
+                best = n;
+            }
+            n = node.parent;
+        }
+        best
+    }
+}
+
+/// When a region shoots instead of its elements (see [`ShooterTree::shooter`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HierarchyRule {
+    /// A shot carries at most this many times the power of the element
+    /// with the most unshot power.
+    pub max_gain: f64,
+    /// No element's unshot radiosity may be more than this many times the
+    /// region's mean, or less than the mean over this.
+    pub uniformity: f64,
+}
+
+impl Default for HierarchyRule {
+    fn default() -> Self {
+        HierarchyRule {
+            max_gain: 64.0,
+            uniformity: 2.0,
+        }
+    }
+}
+
+/// The children of a convex region, as the uniform mesher splits it.
+fn subdivide(p: &[Vec3]) -> Vec<Vec<Vec3>> {
+    let mid = |a: Vec3, b: Vec3| 0.5 * (a + b);
+    match p.len() {
+        3 => {
+            let (m01, m12, m20) = (mid(p[0], p[1]), mid(p[1], p[2]), mid(p[2], p[0]));
+            vec![
+                vec![p[0], m01, m20],
+                vec![m01, p[1], m12],
+                vec![m20, m12, p[2]],
+                vec![m01, m12, m20],
+            ]
+        }
+        4 => {
+            let (m01, m12, m23, m30) = (
+                mid(p[0], p[1]),
+                mid(p[1], p[2]),
+                mid(p[2], p[3]),
+                mid(p[3], p[0]),
+            );
+            let c = 0.25 * (p[0] + p[1] + p[2] + p[3]);
+            vec![
+                vec![p[0], m01, c, m30],
+                vec![m01, p[1], m12, c],
+                vec![c, m12, p[2], m23],
+                vec![m30, c, m23, p[3]],
+            ]
+        }
+        n if n > 4 => (1..n - 1).map(|k| vec![p[0], p[k], p[k + 1]]).collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The child whose outline contains `c` (seen along `normal`), else the
+/// one with the nearest centroid.
+fn containing(children: &[Vec<Vec3>], normal: Vec3, c: Vec3) -> usize {
+    let inside = |poly: &[Vec3]| {
+        let scale = poly
+            .iter()
+            .map(|v| v.distance(poly[0]))
+            .fold(0.0f32, f32::max);
+        (0..poly.len()).all(|k| {
+            let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+            (b - a).cross(c - a).dot(normal) >= -1e-5 * scale * scale
+        })
+    };
+    if let Some(i) = children.iter().position(|p| inside(p)) {
+        return i;
+    }
+    let centroid = |p: &[Vec3]| p.iter().copied().sum::<Vec3>() / p.len() as f32;
+    (0..children.len())
+        .min_by(|&a, &b| {
+            let da = centroid(&children[a]).distance_squared(c);
+            let db = centroid(&children[b]).distance_squared(c);
+            da.total_cmp(&db)
+        })
+        .unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::uniform;
+    use crate::scene::load_builtin;
+
+    #[test]
+    fn every_node_is_its_elements_on_a_uniform_mesh() {
+        let scene = load_builtin("cornell").unwrap().unwrap();
+        let mesh = uniform(&scene, 40.0);
+        let tree = ShooterTree::new(&scene, &mesh);
+        let mut seen = vec![false; mesh.elements.len()];
+        for &e in &tree.order {
+            assert!(!std::mem::replace(&mut seen[e as usize], true));
+        }
+        assert!(
+            seen.iter().all(|&s| s),
+            "every element is in the order once"
+        );
+        for (i, node) in tree.nodes.iter().enumerate() {
+            assert!(!node.range.is_empty(), "node {i} holds elements");
+            // Uniform quadtree: the outline is exactly its elements' union.
+            let rel = (node.polygon_area - node.area).abs() / node.area;
+            assert!(
+                rel < 1e-3,
+                "node {i}: outline {} vs elements {}",
+                node.polygon_area,
+                node.area
+            );
+            if node.parent != u32::MAX {
+                let parent = &tree.nodes[node.parent as usize];
+                assert!(
+                    parent.range.start <= node.range.start && node.range.end <= parent.range.end
+                );
+                assert_eq!(parent.patch, node.patch);
+            }
+            for &e in tree.elements(i as u32) {
+                assert_eq!(mesh.elements[e as usize].patch, node.patch);
+            }
+        }
+    }
+
+    #[test]
+    fn the_shooter_grows_while_the_region_is_even_and_not_too_strong() {
+        let scene = load_builtin("cornell").unwrap().unwrap();
+        let mesh = uniform(&scene, 40.0);
+        let tree = ShooterTree::new(&scene, &mesh);
+        // The floor: patch 0 in the Cornell file; every element equally lit.
+        let floor = mesh.patch_elements[0].clone();
+        let top = floor.start;
+        let area = |e: u32| mesh.elements[e as usize].area as f64;
+        let even = |e: u32| if floor.contains(&e) { area(e) } else { 0.0 };
+        let rule = HierarchyRule::default();
+        let n = tree.shooter(top, false, &rule, even, area);
+        let count = tree.elements(n).len() as f64;
+        assert!(count > 1.0 && count <= rule.max_gain, "{count} elements");
+        // Emitters shoot element by element.
+        assert_eq!(
+            tree.shooter(top, true, &rule, even, area),
+            tree.leaf[top as usize]
+        );
+        // One bright element among dark ones shoots alone.
+        let spot = |e: u32| if e == top { 100.0 * area(e) } else { even(e) };
+        assert_eq!(
+            tree.shooter(top, false, &rule, spot, area),
+            tree.leaf[top as usize]
+        );
+    }
+}
