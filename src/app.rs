@@ -38,8 +38,8 @@ pub struct Job {
     pub check_mesh: bool,
     /// Draw the mesh edges over the image.
     pub wireframe: bool,
-    /// Show unfinished solutions (max shots reached, interrupted) with the
-    /// ambient term added to the image.
+    /// Show the ambient term for the light still unshot (whenever any is
+    /// left: previews, interrupts, and solutions converged to a tolerance).
     pub ambient: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): split
     /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
@@ -200,6 +200,8 @@ impl Report {
                 "max_edge": self.max_edge,
                 "hemicube_res": job.solve.hemicube_res,
                 "converge": job.solve.converge,
+                "stop_error": job.solve.unshot_share,
+                "shooting": format!("{:?}", job.solve.shooting),
                 "max_shots": job.solve.max_shots,
                 "size": [job.size.0, job.size.1],
                 "exposure": self.exposure,
@@ -221,6 +223,7 @@ impl Report {
             "solve": {
                 "shots": s.shots,
                 "residual": s.residual,
+                "unshot_share": s.unshot_share,
                 "converged": s.converged,
                 "interrupted": s.interrupted,
                 "wall_s": s.wall_seconds,
@@ -355,7 +358,9 @@ pub fn run(
     // An unfinished solution is shown with the ambient term standing in
     // for the light not yet shot; the exported mesh keeps the solved values.
     let mut shown = solution.vertex_radiosity(&mesh);
-    let ambient = (job.ambient && !solution.converged).then(|| solution.ambient(&scene, &mesh));
+    // Whenever light is left unshot (a preview, an interrupt, or a run that
+    // converged to a tolerance), the ambient term stands in for it.
+    let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&scene, &mesh));
     if let Some(a) = ambient {
         crate::solve::solution::add_ambient(&scene, &mesh, &mut shown, a);
     }

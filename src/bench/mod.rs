@@ -428,6 +428,7 @@ fn settings(method: FormFactorMethod, hemicube_res: u32) -> SolveSettings {
         method,
         hemicube_res,
         converge: CONVERGE,
+        unshot_share: None,
         max_shots: SolveSettings::default().max_shots,
         // The bench compares form-factor methods shot for shot.
         shooting: Shooting::Element,
@@ -498,6 +499,7 @@ fn scene_reference(
                 method: FormFactorMethod::Analytic,
                 hemicube_res: CPU_METHOD_HEMICUBE_RES,
                 converge: REFERENCE_ANALYTIC_CONVERGE,
+                unshot_share: None,
                 max_shots: 1_000_000,
                 shooting: Shooting::Element,
             },
@@ -515,6 +517,7 @@ fn scene_reference(
                 },
                 hemicube_res: CPU_METHOD_HEMICUBE_RES,
                 converge: REFERENCE_HEMICUBE_CONVERGE,
+                unshot_share: None,
                 max_shots: 1_000_000,
                 shooting: Shooting::Element,
             },

@@ -148,9 +148,16 @@ pub(crate) struct RenderArgs {
     pub(crate) export: Option<PathBuf>,
     #[command(flatten)]
     pub(crate) mesh: MeshArgs,
-    /// Stop when unshot power < this fraction of the emitted power.
-    #[arg(long, default_value_t = 1e-3, value_name = "FRACTION")]
-    pub(crate) converge: f64,
+    /// Stop when the light still unshot is below this fraction of the
+    /// radiosity the image shows: the error stopping leaves in the written
+    /// mesh (the image's ambient term makes up most of it). The default
+    /// needs no tuning; --converge overrides it.
+    #[arg(long, default_value_t = 0.005, value_name = "FRACTION")]
+    pub(crate) stop_error: f64,
+    /// Stop instead when the unshot power is below this fraction of the
+    /// emitted power.
+    #[arg(long, value_name = "FRACTION")]
+    pub(crate) converge: Option<f64>,
     /// Stop after this many shots at the latest.
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub(crate) max_shots: usize,

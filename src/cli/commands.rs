@@ -11,7 +11,7 @@ use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
 use super::print::{
     print_bench, print_form_factors, print_mesh_report, print_mesher_bench, print_summary,
 };
-use super::progress::{install_interrupt_handler, ProgressLine, INTERRUPTED};
+use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
 use vkrad::app::{run, CameraOverride, Job};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
@@ -59,10 +59,15 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.solve = SolveSettings {
         method: args.mesh.method()?,
         hemicube_res: args.mesh.hemicube_res,
-        converge: args.converge,
+        // --converge alone, else the stop error (with a floor far below it).
+        converge: args.converge.unwrap_or(1e-6),
+        unshot_share: args.converge.is_none().then_some(args.stop_error),
         max_shots: args.max_shots,
         shooting: args.shooting.shooting(),
     };
+    if !(job.solve.converge > 0.0 && job.solve.converge < 1.0) || !(args.stop_error > 0.0) {
+        bail!("--converge and --stop-error take a fraction between 0 and 1");
+    }
     job.camera = CameraOverride {
         eye: args.eye,
         look_at: args.look_at,
@@ -78,7 +83,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     install_interrupt_handler();
     let mut progress = ProgressLine::new(
         !args.quiet && std::io::stderr().is_terminal(),
-        args.converge,
+        match args.converge {
+            Some(f) => StopTarget::Residual(f),
+            None => StopTarget::UnshotShare(args.stop_error),
+        },
     );
     let report = run(&job, None, |p| {
         progress.update(p);

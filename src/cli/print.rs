@@ -51,9 +51,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         );
     }
     println!(
-        "  solve     {} shots, residual unshot {:.2e} of emitted power{}",
+        "  solve     {} shots, residual unshot {:.2e} of emitted power, {:.2}% of the radiosity shown{}",
         s.shots,
         s.residual,
+        100.0 * s.unshot_share.min(1.0),
         if s.interrupted {
             " (PARTIAL: interrupted)"
         } else if s.converged {
@@ -64,7 +65,7 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     );
     if let Some(a) = r.ambient {
         println!(
-            "  ambient   image shows the unfinished solution plus an ambient term ({:.3} {:.3} {:.3}; --no-ambient to omit)",
+            "  ambient   image adds an ambient term for the unshot light ({:.3} {:.3} {:.3}; --no-ambient to omit)",
             a.x, a.y, a.z
         );
     }

@@ -21,11 +21,21 @@ pub(crate) fn install_interrupt_handler() {
     }
 }
 
+/// What ends the solve, for the progress bar and its ETA.
+#[derive(Clone, Copy)]
+pub(crate) enum StopTarget {
+    /// The residual (unshot / emitted power) falls below this.
+    Residual(f64),
+    /// The unshot light's share of what is shown falls below this.
+    UnshotShare(f64),
+}
+
 /// A one-line progress display on stderr (only on a terminal): shots,
-/// residual, speed and an ETA from the residual's recent decay rate.
+/// residual, speed and an ETA from the stopping measure's recent decay
+/// rate (it falls roughly exponentially).
 pub(crate) struct ProgressLine {
     enabled: bool,
-    converge: f64,
+    target: StopTarget,
     start: Instant,
     last_draw: Instant,
     /// (shots, ln residual, seconds) some time ago, for the decay rate.
@@ -33,11 +43,11 @@ pub(crate) struct ProgressLine {
 }
 
 impl ProgressLine {
-    pub(crate) fn new(enabled: bool, converge: f64) -> Self {
+    pub(crate) fn new(enabled: bool, target: StopTarget) -> Self {
         let now = Instant::now();
         ProgressLine {
             enabled,
-            converge,
+            target,
             start: now,
             last_draw: now,
             anchor: None,
@@ -50,9 +60,13 @@ impl ProgressLine {
         }
         self.last_draw = Instant::now();
         let t = self.start.elapsed().as_secs_f64();
-        let ln_r = p.residual.max(1e-300).ln();
-        let target = self.converge.max(1e-300).ln();
-        // Fraction done on a log scale: residual 1 -> 0, converge -> 1.
+        let (measure, target) = match self.target {
+            StopTarget::Residual(f) => (p.residual, f),
+            StopTarget::UnshotShare(f) => (p.unshot_share.min(1.0), f),
+        };
+        let ln_r = measure.max(1e-300).ln();
+        let target = target.max(1e-300).ln();
+        // Fraction done on a log scale: measure 1 -> 0, target -> 1.
         let done = (ln_r / target).clamp(0.0, 1.0);
         let eta = match self.anchor {
             Some((s0, ln0, t0)) if p.shots > s0 + 10 && ln_r < ln0 => {

@@ -23,6 +23,10 @@ pub struct SolveSettings {
     pub hemicube_res: u32,
     /// Stop when the unshot power is below this fraction of the emitted power.
     pub converge: f64,
+    /// Also stop when the estimated share of the light still unshot in the
+    /// radiosity shown (see [`unshot_share`]) is below this: the error a
+    /// picture has from stopping here. `None`: only `converge` decides.
+    pub unshot_share: Option<f64>,
     /// Stop after this many shots at the latest.
     pub max_shots: usize,
     /// Who shoots: regions of the shooting hierarchy, or single elements.
@@ -48,6 +52,7 @@ impl Default for SolveSettings {
             method: FormFactorMethod::Hemicube,
             hemicube_res: 256,
             converge: 1e-3,
+            unshot_share: None,
             max_shots: 100_000,
             shooting: Shooting::Hierarchical(HierarchyRule::default()),
         }
@@ -65,6 +70,23 @@ pub struct Progress {
     pub shots: usize,
     /// Unshot power / emitted power.
     pub residual: f64,
+    /// The estimated share of unshot light in what is shown ([`unshot_share`]).
+    pub unshot_share: f64,
+}
+
+/// The light still unshot as a share of the reflected radiosity solved so
+/// far: what the unshot power will add once shot and interreflected,
+/// `unshot x r / (1 - r)` with `r` the measured return ratio (the share of
+/// shot power that came back as reflected power: reflectance times the
+/// share not escaping), over the reflected power so far. What an image or
+/// mesh lacks from stopping here, relative to what it shows; infinite
+/// before anything was reflected.
+pub fn unshot_share(unshot_power: f64, reflected_power: f64, return_ratio: f64) -> f64 {
+    if reflected_power <= 0.0 {
+        return f64::INFINITY;
+    }
+    let r = return_ratio.clamp(0.0, 0.999);
+    unshot_power * r / ((1.0 - r) * reflected_power)
 }
 
 /// Solves the scene by progressive refinement until the residual falls
@@ -110,13 +132,22 @@ pub fn solve(
         (Shooting::Hierarchical(_), FormFactorMethod::Hemicube)
     );
     let mut unshot_power = emitted_power;
+    // Reflected power delivered so far (every receiver adds its reflected
+    // share to its radiosity and to its unshot radiosity alike).
+    let mut reflected_power = 0.0f64;
+    let mut shot_total = 0.0f64;
+    let mut share = f64::INFINITY;
+    let done = |unshot_power: f64, share: f64| {
+        unshot_power / emitted_power < settings.converge
+            || settings.unshot_share.is_some_and(|target| share < target)
+    };
     let mut residual_history = vec![1.0];
     let mut shots = 0;
     let mut converged = false;
     let mut interrupted = false;
 
     while shots < settings.max_shots {
-        if unshot_power / emitted_power < settings.converge {
+        if done(unshot_power, share) {
             converged = true;
             break;
         }
@@ -142,6 +173,13 @@ pub fn solve(
             }
             _ => shots_engine.tree().leaf[shooter],
         };
+        let shot_power: f64 = shots_engine
+            .tree()
+            .elements(node)
+            .iter()
+            .map(|&e| power(unshot[e as usize], areas[e as usize]))
+            .sum();
+        let before = unshot_power;
         let after = shots_engine.shoot(node, &unshot, shots as u64, hierarchical)?;
         // Re-key only what changed; sum the unshot power afresh so rounding
         // cannot drift.
@@ -160,14 +198,21 @@ pub fn solve(
             unshot_power += power(*new, areas[j]);
         }
         shots += 1;
+        reflected_power += (unshot_power - before + shot_power).max(0.0);
+        shot_total += shot_power;
+        share = unshot_share(unshot_power, reflected_power, reflected_power / shot_total);
         let residual = unshot_power / emitted_power;
         residual_history.push(residual);
-        if !on_progress(&Progress { shots, residual }) {
+        if !on_progress(&Progress {
+            shots,
+            residual,
+            unshot_share: share,
+        }) {
             interrupted = true;
             break;
         }
     }
-    if unshot_power / emitted_power < settings.converge {
+    if done(unshot_power, share) {
         converged = true;
     }
     let shot = shots_engine.finish()?;
@@ -177,6 +222,8 @@ pub fn solve(
         unshot: unshot.iter().map(|u| [u[0], u[1], u[2]]).collect(),
         shots,
         residual: unshot_power / emitted_power,
+        unshot_share: share,
+        return_ratio: (shot_total > 0.0).then(|| reflected_power / shot_total),
         converged,
         interrupted,
         residual_history,

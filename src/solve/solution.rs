@@ -20,6 +20,13 @@ pub struct Solution {
     pub shots: usize,
     /// Unshot power / emitted power at the end.
     pub residual: f64,
+    /// The estimated share of the unshot light in the radiosity shown
+    /// (`progressive::unshot_share`), at the end.
+    pub unshot_share: f64,
+    /// The share of all shot power that came back as reflected power
+    /// (reflectance times the share that did not escape); `None` before
+    /// the first shot.
+    pub return_ratio: Option<f64>,
     pub converged: bool,
     /// The caller stopped the solve early (Ctrl-C): the result is partial.
     pub interrupted: bool,
@@ -60,11 +67,14 @@ impl Solution {
     }
 
     /// The ambient term of this solution's unshot light (Cohen, Chen,
-    /// Wallace and Greenberg 1988): the unshot power spread evenly over the
-    /// scene and interreflected with the area-averaged reflectance,
-    /// ambient = sum(B_unshot A) / sum(A) / (1 - rho_avg), per channel.
-    /// Added as rho * ambient to what a preview shows ([`add_ambient`]), it
-    /// stands in for the light still to be shot.
+    /// Wallace and Greenberg 1988): the irradiance the unshot power will
+    /// add, spread evenly over the scene. Cohen et al. take every bounce to
+    /// return the area-mean reflectance rho; in an open scene (the Cornell
+    /// box has no front wall) part of it escapes, so the measured return
+    /// ratio r ([`Solution::return_ratio`]) stands for it here:
+    /// ambient = sum(B_unshot A) / sum(A) x (r / rho) / (1 - r), per channel
+    /// (with rho where nothing was shot yet). Added as rho * ambient to what
+    /// is shown ([`add_ambient`]).
     pub fn ambient(&self, scene: &Scene, mesh: &Mesh) -> Vec3 {
         let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
         for (e, u) in mesh.elements.iter().zip(&self.unshot) {
@@ -76,7 +86,14 @@ impl Solution {
             return Vec3::ZERO;
         }
         let rho = (reflected / area).min(Vec3::splat(0.999));
-        power / area / (Vec3::ONE - rho)
+        let mean_rho = (rho.x + rho.y + rho.z) / 3.0;
+        match self.return_ratio {
+            Some(r) if mean_rho > 0.0 => {
+                let r = (r as f32).clamp(0.0, 0.999);
+                power / area * (r / mean_rho) / (1.0 - r)
+            }
+            _ => power / area / (Vec3::ONE - rho),
+        }
     }
 }
 

@@ -128,8 +128,7 @@ fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
             .sum();
         (sum / r.image.pixels.len() as f64, r.ambient.is_some())
     };
-    let (converged, used) = mean(100_000, true);
-    assert!(!used, "a converged solution gets no ambient term");
+    let (converged, _) = mean(100_000, true);
     let (plain, _) = mean(40, false);
     let (with_ambient, used) = mean(40, true);
     assert!(used);
@@ -138,4 +137,45 @@ fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
     eprintln!("mean radiance: converged {converged:.4}, 40 shots {plain:.4}, 40 shots + ambient {with_ambient:.4}");
     assert!(plain < converged && with_ambient > plain);
     assert!((with_ambient - converged).abs() < (plain - converged).abs());
+}
+
+/// Regression: a run that "converged" at a loose tolerance showed no
+/// ambient term and read about 15% dark. With the term, its mean radiance
+/// is within 2% of a tightly converged run's.
+#[test]
+fn a_loosely_converged_image_is_not_dark() {
+    use vkrad::app::{run, Job};
+    let device = device();
+    let dir = std::env::temp_dir().join(format!("vkrad-loose-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mean = |converge: f64| {
+        let mut job = Job::new("cornell");
+        job.output = Some(dir.join("out.hdr"));
+        job.size = (48, 48);
+        job.max_edge = Some(70.0);
+        job.solve = SolveSettings {
+            hemicube_res: 64,
+            converge,
+            ..Default::default()
+        };
+        let r = run(&job, Some(device.clone()), |_| true).unwrap();
+        assert!(r.solution.converged);
+        let sum: f64 = r
+            .image
+            .pixels
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) as f64)
+            .sum();
+        sum / r.image.pixels.len() as f64
+    };
+    let tight = mean(1e-4);
+    let loose = mean(1e-1);
+    assert_validation_clean(&device);
+    std::fs::remove_dir_all(&dir).ok();
+    let rel = (loose - tight) / tight;
+    eprintln!(
+        "mean radiance: converge 1e-4 {tight:.4}, converge 1e-1 {loose:.4} ({:+.2}%)",
+        100.0 * rel
+    );
+    assert!(rel.abs() < 0.02, "converge 1e-1 reads {:+.2}%", 100.0 * rel);
 }

@@ -23,7 +23,9 @@ use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::{Error, Result};
 
+mod params;
 mod setup;
+pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
 /// Fixed-point scale of accumulated form factors: F = sum / 2^31
@@ -38,69 +40,6 @@ pub fn fixed_point_weights(delta_form_factors: &[f64]) -> Vec<u32> {
         .iter()
         .map(|w| (w * FF_FIXED_ONE).round() as u32)
         .collect()
-}
-
-/// Per-shot parameters (std140, mirrors glsl/shot_params.glsl).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ShotParams {
-    pub face_view_proj: [[f32; 16]; 5],
-    /// rgb: the shooter's unshot radiosity; w: its elements' area.
-    pub shooter_unshot: [f32; 4],
-    pub shooter: u32,
-    pub element_count: u32,
-    /// 0: the hemicube's form factors; 1: exact x visibility from `outline`.
-    pub mode: u32,
-    pub hemicube_pixels: u32,
-    /// The shooter's elements: ranks [x, y).
-    pub shooter_ranks: [u32; 4],
-    pub outline: [[f32; 4]; MAX_OUTLINE],
-    pub centre_radius: [f32; 4],
-    pub normal_area: [f32; 4],
-    pub outline_count: u32,
-    pub _pad: [u32; 3],
-}
-
-/// Corners of a shooting region's outline the shaders take (`outline[8]`).
-pub const MAX_OUTLINE: usize = 8;
-
-/// One element's geometry for `ff_node.comp`: corners (unused ones repeat
-/// the last), and (unit normal, corner count).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-pub struct ElementGeometry {
-    pub corners: [[f32; 4]; 4],
-    pub normal_count: [f32; 4],
-}
-
-/// The shooter of one shot, as the passes see it.
-#[derive(Debug, Clone, Copy)]
-pub struct Shooter<'a> {
-    /// World -> clip of the five hemicube faces at its centre (unused when
-    /// the form factors come from the CPU).
-    pub faces: [glam::Mat4; 5],
-    /// Unshot radiosity (rgb) leaving it.
-    pub unshot: [f32; 3],
-    /// The area of its elements.
-    pub area: f32,
-    /// Its elements: ranks [start, end) in the order `ShootingInputs::ranks` numbers.
-    pub ranks: (u32, u32),
-    /// `Some` for a region shot: form factors are exact x visibility from
-    /// this outline (glsl/ff_node.comp); `None`: the hemicube's own.
-    pub region: Option<Region<'a>>,
-}
-
-/// A shooting region's outline (convex, counter-clockwise seen from the
-/// front, at most [`MAX_OUTLINE`] corners).
-#[derive(Debug, Clone, Copy)]
-pub struct Region<'a> {
-    pub outline: &'a [glam::Vec3],
-    /// Where the hemicube stands.
-    pub centre: glam::Vec3,
-    /// Largest distance from `centre` to a corner.
-    pub radius: f32,
-    pub normal: glam::Vec3,
-    pub outline_area: f32,
 }
 
 /// What the engine needs to know of the scene, as plain arrays.
@@ -638,40 +577,6 @@ impl ShootingEngine {
             )],
             &[],
         );
-    }
-
-    fn write_params(&mut self, shooter: &Shooter) -> Result<()> {
-        let [r, g, b] = shooter.unshot;
-        let mut params = ShotParams {
-            face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
-            shooter_unshot: [r, g, b, shooter.area],
-            shooter: shooter.ranks.0,
-            element_count: self.element_count,
-            mode: 0,
-            hemicube_pixels: self.atlas.0 * self.atlas.1,
-            shooter_ranks: [shooter.ranks.0, shooter.ranks.1, 0, 0],
-            outline: [[0.0; 4]; MAX_OUTLINE],
-            centre_radius: [0.0; 4],
-            normal_area: [0.0; 4],
-            outline_count: 0,
-            _pad: [0; 3],
-        };
-        if let Some(region) = &shooter.region {
-            if region.outline.len() < 3 || region.outline.len() > MAX_OUTLINE {
-                return Err(Error::Invalid(format!(
-                    "a shooting region needs 3 to {MAX_OUTLINE} corners, got {}",
-                    region.outline.len()
-                )));
-            }
-            params.mode = 1;
-            for (slot, v) in params.outline.iter_mut().zip(region.outline) {
-                *slot = v.extend(0.0).to_array();
-            }
-            params.outline_count = region.outline.len() as u32;
-            params.centre_radius = region.centre.extend(region.radius).to_array();
-            params.normal_area = region.normal.extend(region.outline_area).to_array();
-        }
-        self.params.write(0, &[params])
     }
 
     /// One progressive-refinement shot with form factors from the GPU
