@@ -65,7 +65,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         max_shots: args.max_shots,
         shooting: args.shooting.shooting(),
     };
-    if !(job.solve.converge > 0.0 && job.solve.converge < 1.0) || !(args.stop_error > 0.0) {
+    let fraction = |f: f64| f > 0.0 && f < 1.0;
+    if !fraction(job.solve.converge) || !fraction(args.stop_error) {
         bail!("--converge and --stop-error take a fraction between 0 and 1");
     }
     job.camera = CameraOverride {
