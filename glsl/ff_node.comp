@@ -15,7 +15,11 @@
 //   V_j = F_hc(j) / F(c -> j)   (the fraction of j that c sees, in [0, 1])
 //
 // q runs over the centres of j's sub-cells (halfway from j's centre to each
-// corner). Where the hemicube cannot resolve j (fewer than MIN_PIXELS of
+// corner). A region's unshot light is not quite even: where the CPU gives
+// its children's outlines and mean unshot radiosity (relative to the
+// region's), F(q -> outline) becomes sum_k w_k F(q -> child k), so a
+// receiver next to the dim end of a region gets less than one next to its
+// bright end. Where the hemicube cannot resolve j (fewer than MIN_PIXELS of
 // its pixels expected) V_j = 1: such a receiver (edge-on to c, or facing
 // away from c but not from all of the region) is taken as unoccluded.
 // Farther away the hemicube's own value stands (error O((r/d)^2)).
@@ -125,20 +129,40 @@ uint corrected(uint j, uint hemicube_ff) {
     if (visible <= 0.0) {
         return 0u;
     }
-    int oc = int(shot.outline_count);
-    vec3 outline[MAX_CORNERS];
-    vec3 middle = vec3(0.0);
-    for (int k = 0; k < oc; ++k) {
-        outline[k] = shot.outline[k].xyz;
-        middle += outline[k];
-    }
-    middle /= float(oc);
     float exact = 0.0;
-    for (int k = 0; k < count; ++k) {
-        vec3 q = cj + 0.5 * (element[k] - cj);
-        exact += point_to_polygon(q, nj, outline, oc, n, middle);
+    int children = int(shot.child_count);
+    for (int part = 0; part < max(children, 1); ++part) {
+        int oc;
+        float weight;
+        vec3 outline[MAX_CORNERS];
+        vec3 middle = vec3(0.0);
+        if (children == 0) {
+            oc = int(shot.outline_count);
+            weight = 1.0;
+            for (int k = 0; k < oc; ++k) {
+                outline[k] = shot.outline[k].xyz;
+            }
+        } else {
+            oc = int(shot.child_corners[part]);
+            weight = shot.child_weight[part];
+            for (int k = 0; k < oc; ++k) {
+                outline[k] = shot.child_outline[4 * part + k].xyz;
+            }
+        }
+        if (weight <= 0.0 || oc < 3) {
+            continue;
+        }
+        for (int k = 0; k < oc; ++k) {
+            middle += outline[k];
+        }
+        middle /= float(oc);
+        float sum = 0.0;
+        for (int k = 0; k < count; ++k) {
+            vec3 q = cj + 0.5 * (element[k] - cj);
+            sum += point_to_polygon(q, nj, outline, oc, n, middle);
+        }
+        exact += weight * sum / float(count);
     }
-    exact /= float(count);
     float f = reflectance_area[j].w / shot.normal_area.w * exact * visible;
     return uint(clamp(round(f / FF_SCALE), 0.0, 4294967040.0));
 }

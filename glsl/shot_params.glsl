@@ -23,6 +23,13 @@ layout(set = 0, binding = 0, std140) uniform ShotParams {
     // xyz: the region's unit normal; w: the outline's area.
     vec4 normal_area;
     uint outline_count;
+    // How many children describe the region's unshot light (0: take it as
+    // even); their corner counts; their outlines, 4 corners each; and each
+    // one's mean unshot radiosity over the region's.
+    uint child_count;
+    uvec4 child_corners;
+    vec4 child_outline[16];
+    vec4 child_weight;
 } shot;
 
 // Item-buffer value of pixels that show no receiver (background or a back face).

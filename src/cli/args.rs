@@ -98,10 +98,13 @@ pub(crate) enum ShootingArg {
     Element,
 }
 
-impl ShootingArg {
-    pub(crate) fn shooting(self) -> Shooting {
-        match self {
-            ShootingArg::Hierarchical => Shooting::Hierarchical(HierarchyRule::default()),
+impl RenderArgs {
+    pub(crate) fn shooting(&self) -> Shooting {
+        match self.shooting {
+            ShootingArg::Hierarchical => Shooting::Hierarchical(HierarchyRule {
+                max_gain: self.max_gain,
+                uniformity: self.uniformity,
+            }),
             ShootingArg::Element => Shooting::Element,
         }
     }
@@ -167,6 +170,14 @@ pub(crate) struct RenderArgs {
     /// progressive refinement; always so with --ff raytrace|analytic).
     #[arg(long, value_enum, default_value_t = ShootingArg::Hierarchical)]
     pub(crate) shooting: ShootingArg,
+    /// Hierarchical shooting: a region's shot carries at most this many
+    /// times the power of the element with the most unshot power.
+    #[arg(long, default_value_t = HierarchyRule::default().max_gain, value_name = "RATIO")]
+    pub(crate) max_gain: f64,
+    /// Hierarchical shooting: no element of a shooting region may be more
+    /// than this many times brighter or dimmer (unshot) than its mean.
+    #[arg(long, default_value_t = HierarchyRule::default().uniformity, value_name = "RATIO")]
+    pub(crate) uniformity: f64,
     /// Camera position (with --look-at; default: the scene's camera or an automatic one).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
     pub(crate) eye: Option<Vec3>,

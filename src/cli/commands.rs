@@ -63,7 +63,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         converge: args.converge.unwrap_or(1e-6),
         unshot_share: args.converge.is_none().then_some(args.stop_error),
         max_shots: args.max_shots,
-        shooting: args.shooting.shooting(),
+        shooting: args.shooting(),
     };
     let fraction = |f: f64| f > 0.0 && f < 1.0;
     if !fraction(job.solve.converge) || !fraction(args.stop_error) {

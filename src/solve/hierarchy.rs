@@ -54,6 +54,8 @@ pub struct Node {
     pub radius: f32,
     /// The element, for a leaf.
     pub element: Option<u32>,
+    /// Child nodes, in order.
+    pub children: Vec<u32>,
 }
 
 /// Every patch's tree of nodes.
@@ -173,8 +175,13 @@ impl ShooterTree {
             normal,
             radius: 0.0,
             element,
+            children: Vec::new(),
         });
-        (self.nodes.len() - 1) as u32
+        let id = (self.nodes.len() - 1) as u32;
+        if parent != u32::MAX {
+            self.nodes[parent as usize].children.push(id);
+        }
+        id
     }
 
     /// Sets a node's range and the statistics of its elements.

@@ -279,12 +279,39 @@ impl<'a> Shots<'a> {
             let faces = self
                 .hemicube
                 .face_view_proj(n.centre, n.normal, near_plane(area));
+            // How the unshot light spreads over the region's children.
+            let level = |m: u32| -> f64 {
+                let node = &self.tree.nodes[m as usize];
+                let power: f64 = self
+                    .tree
+                    .elements(m)
+                    .iter()
+                    .map(|&e| {
+                        let u = unshot[e as usize];
+                        (u[0] + u[1] + u[2]) as f64 * self.mesh.elements[e as usize].area as f64
+                    })
+                    .sum();
+                power / (node.area as f64).max(f64::MIN_POSITIVE)
+            };
+            let parts: Vec<(&[glam::Vec3], f32)> = if n.children.len() > 1 {
+                let mean = level(node).max(f64::MIN_POSITIVE);
+                n.children
+                    .iter()
+                    .map(|&c| {
+                        let child = &self.tree.nodes[c as usize];
+                        (child.polygon.as_slice(), (level(c) / mean) as f32)
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
             let region = region.then_some(Region {
                 outline: &n.polygon,
                 centre: n.centre,
                 radius: n.radius,
                 normal: n.normal,
                 outline_area: n.polygon_area,
+                parts: &parts,
             });
             return self.engine.shoot(&Shooter {
                 faces,

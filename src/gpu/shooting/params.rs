@@ -23,8 +23,15 @@ pub struct ShotParams {
     pub centre_radius: [f32; 4],
     pub normal_area: [f32; 4],
     pub outline_count: u32,
-    pub _pad: [u32; 3],
+    pub child_count: u32,
+    pub _pad: [u32; 2],
+    pub child_corners: [u32; 4],
+    pub child_outline: [[f32; 4]; 4 * MAX_CHILDREN],
+    pub child_weight: [f32; 4],
 }
+
+/// Children of a shooting region the shaders take, and corners per child.
+pub const MAX_CHILDREN: usize = 4;
 
 /// Corners of a shooting region's outline the shaders take (`outline[8]`).
 pub const MAX_OUTLINE: usize = 8;
@@ -66,6 +73,10 @@ pub struct Region<'a> {
     pub radius: f32,
     pub normal: glam::Vec3,
     pub outline_area: f32,
+    /// How the unshot light spreads over it: up to [`MAX_CHILDREN`] parts
+    /// (outlines of 3 or 4 corners that tile the outline) and each part's
+    /// mean unshot radiosity over the region's. Empty: even.
+    pub parts: &'a [(&'a [glam::Vec3], f32)],
 }
 
 impl ShootingEngine {
@@ -83,7 +94,11 @@ impl ShootingEngine {
             centre_radius: [0.0; 4],
             normal_area: [0.0; 4],
             outline_count: 0,
-            _pad: [0; 3],
+            child_count: 0,
+            _pad: [0; 2],
+            child_corners: [0; 4],
+            child_outline: [[0.0; 4]; 4 * MAX_CHILDREN],
+            child_weight: [0.0; 4],
         };
         if let Some(region) = &shooter.region {
             if region.outline.len() < 3 || region.outline.len() > MAX_OUTLINE {
@@ -99,6 +114,18 @@ impl ShootingEngine {
             params.outline_count = region.outline.len() as u32;
             params.centre_radius = region.centre.extend(region.radius).to_array();
             params.normal_area = region.normal.extend(region.outline_area).to_array();
+            let fits = region.parts.len() <= MAX_CHILDREN
+                && region.parts.iter().all(|(o, _)| (3..=4).contains(&o.len()));
+            if fits {
+                params.child_count = region.parts.len() as u32;
+                for (k, (outline, weight)) in region.parts.iter().enumerate() {
+                    params.child_corners[k] = outline.len() as u32;
+                    params.child_weight[k] = *weight;
+                    for (c, v) in outline.iter().enumerate() {
+                        params.child_outline[4 * k + c] = v.extend(0.0).to_array();
+                    }
+                }
+            }
         }
         self.params.write(0, &[params])
     }
