@@ -15,6 +15,7 @@ mod failure_modes;
 mod formfactor_hemicube;
 mod fuzz_loader;
 mod golden;
+mod hierarchy;
 mod layout;
 mod shaders;
 mod visibility;
