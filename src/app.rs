@@ -9,7 +9,7 @@ use std::time::Instant;
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
-use crate::mesh::build::{check_mesh, MeshBuilder, MeshReport, MeshSettings, Mesher};
+use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshReport, MeshSettings, Mesher};
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
@@ -109,6 +109,8 @@ pub struct Report {
     pub mesh: Mesh,
     pub max_edge: f32,
     pub mesh_report: MeshReport,
+    /// What the mesh was estimated to cost before it was built.
+    pub estimate: CostEstimate,
     /// Element counts of every mesh solved (more than one with --adaptive).
     pub adaptive_elements: Vec<usize>,
     /// The estimated relative RMS interpolation error of every mesh solved
@@ -260,9 +262,37 @@ pub fn run(
     device: Option<Arc<Device>>,
     on_progress: impl FnMut(&Progress) -> bool,
 ) -> Result<Report> {
-    let mut wall = Vec::new();
     let t = Instant::now();
     let scene = scene::load_scene_arg(&job.scene)?;
+    run_scene(job, scene, t.elapsed().as_secs_f64(), device, on_progress)
+}
+
+/// The mesh settings a job asks for on `scene`.
+pub fn mesh_settings(job: &Job, scene: &Scene) -> MeshSettings {
+    MeshSettings {
+        mesher: job.mesher,
+        max_edge: job
+            .max_edge
+            .unwrap_or_else(|| mesh::default_max_edge(scene)),
+        dm_res: job.dm_res,
+    }
+}
+
+/// What the job's mesh will cost, before any of it is built.
+pub fn estimate(job: &Job, scene: &Scene) -> CostEstimate {
+    CostEstimate::new(scene, &mesh_settings(job, scene))
+}
+
+/// [`run`] on a scene already loaded (in `load_seconds`).
+pub fn run_scene(
+    job: &Job,
+    scene: Scene,
+    load_seconds: f64,
+    device: Option<Arc<Device>>,
+    on_progress: impl FnMut(&Progress) -> bool,
+) -> Result<Report> {
+    let mut wall = vec![("load", load_seconds)];
+    let t = Instant::now();
     let output = job
         .output
         .clone()
@@ -272,7 +302,7 @@ pub fn run(
         check_output_path(export, MESH_EXTENSIONS)?;
     }
     let camera = job.camera.apply(default_camera(&scene));
-    wall.push(("load", t.elapsed().as_secs_f64()));
+    wall[0].1 += t.elapsed().as_secs_f64();
 
     if job.adaptive > 0 && job.mesher == Mesher::Uniform {
         return Err(Error::Invalid(
@@ -284,14 +314,9 @@ pub fn run(
         None => Device::new(&job.device)?,
     };
     let t = Instant::now();
-    let max_edge = job
-        .max_edge
-        .unwrap_or_else(|| mesh::default_max_edge(&scene));
-    let settings = MeshSettings {
-        mesher: job.mesher,
-        max_edge,
-        dm_res: job.dm_res,
-    };
+    let settings = mesh_settings(job, &scene);
+    let max_edge = settings.max_edge;
+    let cost = CostEstimate::new(&scene, &settings);
     let mut builder = MeshBuilder::new(&device, &scene, settings)?;
     let (mesh, mesh_report) = builder.build(&[])?;
     if job.check_mesh {
@@ -394,6 +419,7 @@ pub fn run(
         mesh,
         max_edge,
         mesh_report,
+        estimate: cost,
         adaptive_elements: history.elements,
         adaptive_errors: history.errors,
         solution,

@@ -15,6 +15,7 @@ pub fn device_selector() -> Option<String> {
     std::env::args().skip_while(|a| a != "--device").nth(1)
 }
 
+#[allow(dead_code)] // not every bench takes medians
 pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]

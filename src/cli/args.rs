@@ -19,7 +19,7 @@ use vkrad::solve::{FormFactorMethod, HierarchyRule, Shooting};
     long_about = "Progressive-refinement radiosity on Vulkan.\n\n\
         `vkrad SCENE` loads an OBJ scene (MTL Kd = diffuse reflectance, Ke = emitted radiance), \
         meshes it, solves it with GPU hemicubes and compute-shader shooting, and writes SCENE.png. \
-        SCENE is a path or a built-in scene name (cornell, simple, r, vise).\n\n\
+        SCENE is a path or a built-in scene name (cornell, simple, r, vise, rfield).\n\n\
         Pixels and exported radiance are L = B / pi, so a converged diffuse path tracer with \
         emitter radiance Ke gives the same numbers.",
     args_conflicts_with_subcommands = true,
@@ -139,7 +139,7 @@ impl MeshArgs {
 
 #[derive(Args)]
 pub(crate) struct RenderArgs {
-    /// Scene: a path to an .obj file, or a built-in name (cornell, simple, r, vise).
+    /// Scene: a path to an .obj file, or a built-in name (cornell, simple, r, vise, rfield).
     #[arg(required = true)]
     pub(crate) scene: Option<String>,
     /// Output image: .png (tone-mapped sRGB), .hdr or .exr (linear radiance).

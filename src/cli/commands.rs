@@ -9,10 +9,11 @@ use anyhow::{bail, Context, Result};
 
 use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
 use super::print::{
-    print_bench, print_form_factors, print_mesh_report, print_mesher_bench, print_summary,
+    describe_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
+    print_summary,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
-use vkrad::app::{run, CameraOverride, Job};
+use vkrad::app::{run_scene, CameraOverride, Job};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
@@ -89,7 +90,16 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
             None => StopTarget::UnshotShare(args.stop_error),
         },
     );
-    let report = run(&job, None, |p| {
+    // Know the cost before paying it: the mesh's size and memory, said
+    // before meshing (and refused inside run_scene if it cannot fit).
+    let t = Instant::now();
+    let scene = vkrad::scene::load_scene_arg(&job.scene)?;
+    let load_seconds = t.elapsed().as_secs_f64();
+    let estimate = vkrad::app::estimate(&job, &scene);
+    if !args.quiet && (std::io::stderr().is_terminal() || estimate.elements >= 100_000) {
+        eprintln!("  estimate  {}", describe_estimate(&estimate));
+    }
+    let report = run_scene(&job, scene, load_seconds, None, |p| {
         progress.update(p);
         !INTERRUPTED.load(Ordering::SeqCst)
     })?;

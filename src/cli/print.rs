@@ -5,10 +5,22 @@ use super::args::FormFactorArgs;
 use vkrad::app::Report;
 use vkrad::bench::meshers::MesherReport;
 use vkrad::bench::BenchReport;
-use vkrad::mesh::build::MeshReport;
+use vkrad::mesh::build::{CostEstimate, MeshReport};
 use vkrad::mesh::Mesh;
 use vkrad::scene::Scene;
 use vkrad::solve::FormFactorMethod;
+
+/// "N elements, X MB host, Y MB GPU".
+pub(crate) fn describe_estimate(e: &CostEstimate) -> String {
+    let mb = |b: u64| b as f64 / (1u64 << 20) as f64;
+    format!(
+        "{}{} elements, {:.0} MB of memory, {:.0} MB on the GPU",
+        if e.exact { "" } else { "about " },
+        e.elements,
+        mb(e.host_bytes),
+        mb(e.device_bytes)
+    )
+}
 
 pub(crate) fn print_summary(r: &Report, profile: bool) {
     let s = &r.solution;
@@ -35,6 +47,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         r.mesh.elements.len(),
         r.mesh.vertices.len(),
         r.max_edge
+    );
+    println!(
+        "  estimate  {} (before meshing)",
+        describe_estimate(&r.estimate)
     );
     print_mesh_report(&r.mesh_report);
     if r.adaptive_elements.len() > 1 {

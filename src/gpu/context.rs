@@ -52,6 +52,8 @@ pub struct DeviceInfo {
     pub driver: String,
     /// Whether vkrad can run on it (Vulkan 1.3, a graphics+compute queue).
     pub usable: Result<(), String>,
+    /// Size of its largest device-local memory heap, in bytes.
+    pub memory_bytes: u64,
 }
 
 /// The Vulkan instance with its optional debug messenger.
@@ -208,6 +210,14 @@ impl Instance {
         } else {
             Ok(())
         };
+        // SAFETY: pd comes from this instance.
+        let memory = unsafe { self.raw.get_physical_device_memory_properties(pd) };
+        let memory_bytes = memory.memory_heaps[..memory.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
         DeviceInfo {
             index,
             name,
@@ -220,6 +230,7 @@ impl Instance {
             ),
             driver,
             usable,
+            memory_bytes,
         }
     }
 

@@ -51,6 +51,99 @@ impl MeshReport {
     }
 }
 
+/// What a mesh will cost, known before it is built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CostEstimate {
+    /// Elements: exact for the uniform mesher, about for discontinuity
+    /// meshes (`exact` says which).
+    pub elements: u64,
+    pub exact: bool,
+    /// Host memory for the mesh and the solver's per-element state.
+    pub host_bytes: u64,
+    /// Device memory for the shooting engine.
+    pub device_bytes: u64,
+}
+
+/// Host bytes per element: the mesh (element, its share of vertices), the
+/// GPU-side copies made on the host (item-buffer triangles, geometry,
+/// materials), the shooting tree, and the solver's unshot, heap and
+/// readback arrays. Counted from the types, rounded up.
+const HOST_BYTES_PER_ELEMENT: u64 = 480;
+/// Device bytes per element: item-buffer vertices (two triangles), element
+/// geometry, reflectance, radiosity, unshot, form factors, ranks, upload
+/// and readback buffers.
+const DEVICE_BYTES_PER_ELEMENT: u64 = 260;
+/// More elements than a solve can finish in reasonable time (every shot
+/// renders every element into a hemicube: a million elements is minutes per
+/// hundred shots on a fast GPU), and about a gigabyte of device memory.
+pub const MAX_ELEMENTS: u64 = 4_000_000;
+
+impl CostEstimate {
+    /// The cost of meshing `scene` with `settings`, from the uniform
+    /// mesher's exact count (the discontinuity mesher's subdivided
+    /// triangles are about twice the quads, plus the shadow lines).
+    pub fn new(scene: &Scene, settings: &MeshSettings) -> Self {
+        let uniform = mesh::element_count(scene, settings.max_edge);
+        let (elements, exact) = match settings.mesher {
+            Mesher::Uniform => (uniform, true),
+            Mesher::Discontinuity { subdivide: true } => (3 * uniform, false),
+            Mesher::Discontinuity { subdivide: false } => (32 * scene.patches.len() as u64, false),
+        };
+        CostEstimate {
+            elements,
+            exact,
+            host_bytes: elements.saturating_mul(HOST_BYTES_PER_ELEMENT),
+            device_bytes: elements.saturating_mul(DEVICE_BYTES_PER_ELEMENT),
+        }
+    }
+
+    /// Refuses a mesh that cannot fit: more than [`MAX_ELEMENTS`], more
+    /// host memory than is available (when the system says), or more than
+    /// 80% of the device's memory. `max_edge` is named in the advice.
+    pub fn check(
+        &self,
+        device_memory: u64,
+        host_available: Option<u64>,
+        max_edge: f32,
+    ) -> Result<()> {
+        let gb = |b: u64| b as f64 / (1u64 << 30) as f64;
+        let what = format!(
+            "--max-edge {max_edge} would make {}{} elements ({:.2} GB of memory, {:.2} GB on the GPU)",
+            if self.exact { "" } else { "about " },
+            self.elements,
+            gb(self.host_bytes),
+            gb(self.device_bytes)
+        );
+        let why = if self.elements > MAX_ELEMENTS {
+            Some(format!("more than vkrad solves ({MAX_ELEMENTS})"))
+        } else if host_available.is_some_and(|a| self.host_bytes > a) {
+            Some(format!(
+                "more than the {:.2} GB of memory available",
+                gb(host_available.unwrap_or(0))
+            ))
+        } else if device_memory > 0 && self.device_bytes > device_memory / 5 * 4 {
+            Some(format!("more than the GPU's {:.2} GB", gb(device_memory)))
+        } else {
+            None
+        };
+        match why {
+            Some(why) => Err(Error::Invalid(format!(
+                "{what}: {why}\n  hint: use a larger --max-edge (elements grow as 1 / max-edge^2)"
+            ))),
+            None => Ok(()),
+        }
+    }
+}
+
+/// Host memory available for new work (Linux: `MemAvailable` in
+/// /proc/meminfo); `None` where the system does not say.
+pub fn host_memory_available() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
 /// Meshes `scene`; `device` is needed for the discontinuity mesher's GPU
 /// visibility pass only.
 pub fn build_mesh(
@@ -79,6 +172,12 @@ impl<'a> MeshBuilder<'a> {
                 settings.max_edge
             )));
         }
+        // Refuse what cannot fit before any of it is built.
+        CostEstimate::new(scene, &settings).check(
+            device.info.memory_bytes,
+            host_memory_available(),
+            settings.max_edge,
+        )?;
         Ok(MeshBuilder {
             device,
             scene,

@@ -9,7 +9,7 @@ pub mod discontinuity;
 mod sanity;
 pub mod uniform;
 
-pub use uniform::{default_max_edge, uniform};
+pub use uniform::{default_max_edge, element_count, uniform};
 
 /// One element: a triangle or a convex planar quad, counter-clockwise seen
 /// from the front. For triangles `corners[3]` is unused.

@@ -78,6 +78,29 @@ pub fn uniform(scene: &Scene, max_edge: f32) -> Mesh {
     mesh
 }
 
+/// How many elements [`uniform`] makes of `scene` at `max_edge`, counted
+/// without meshing (to know the cost before paying it).
+pub fn element_count(scene: &Scene, max_edge: f32) -> u64 {
+    scene
+        .patches
+        .iter()
+        .map(|patch| {
+            let vs = &patch.vertices;
+            match vs.len() {
+                0..=2 => 0,
+                4 => 1u64 << (2 * level_for(longest_edge(vs), max_edge)),
+                n => {
+                    let level = (1..n - 1)
+                        .map(|t| level_for(longest_edge(&[vs[0], vs[t], vs[t + 1]]), max_edge))
+                        .max()
+                        .unwrap_or(0);
+                    (n as u64 - 2) << (2 * level)
+                }
+            }
+        })
+        .sum()
+}
+
 /// The smallest level k such that `longest / 2^k <= max_edge`, capped at
 /// [`MAX_LEVEL`].
 fn level_for(longest: f32, max_edge: f32) -> u32 {
@@ -236,6 +259,21 @@ fn mesh_fan(mesh: &mut Mesh, patch_index: u32, patch: &Patch, max_edge: f32) {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn element_count_is_what_uniform_makes() {
+        let scene = crate::scene::load_builtin("cornell").unwrap().unwrap();
+        for max_edge in [1000.0, 40.0, 13.0] {
+            let mesh = uniform(&scene, max_edge);
+            assert_eq!(element_count(&scene, max_edge), mesh.elements.len() as u64);
+        }
+        let vise = crate::scene::load_builtin("vise").unwrap().unwrap();
+        let e = vise.extent() / 24.0;
+        assert_eq!(
+            element_count(&vise, e),
+            uniform(&vise, e).elements.len() as u64
+        );
+    }
+
     use super::*;
     use crate::mesh::testutil::{scene, unit_square};
 

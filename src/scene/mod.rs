@@ -148,11 +148,17 @@ const BUILTINS: &[(&str, &str, &str, &str)] = &[
         "vise.mtl",
         include_str!("../../scenes/vise.mtl"),
     ),
+    (
+        "rfield",
+        include_str!("../../scenes/rfield.obj"),
+        "rfield.mtl",
+        include_str!("../../scenes/rfield.mtl"),
+    ),
 ];
 
 /// Names of the built-in scenes, for `load_builtin` and `load_scene_arg`.
-pub fn builtin_names() -> &'static [&'static str] {
-    &["cornell", "simple", "r", "vise"]
+pub fn builtin_names() -> Vec<&'static str> {
+    BUILTINS.iter().map(|b| b.0).collect()
 }
 
 /// Loads a built-in scene; `None` when there is none of that name.

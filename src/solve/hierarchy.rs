@@ -219,7 +219,8 @@ impl ShooterTree {
     /// elements' unshot radiosity stays within a factor `uniformity` of the
     /// region's mean, so that the region's light is spread about evenly
     /// over it. Emitters
-    /// shoot element by element (their shadows need the area sampled).
+    /// shoot in parts of a fixed share of their patch ([`EMITTER_LEVELS`]:
+    /// direct shadows need the light's area sampled).
     /// `power(e)` is an element's unshot power.
     pub fn shooter(
         &self,
@@ -231,7 +232,7 @@ impl ShooterTree {
     ) -> u32 {
         let leaf = self.leaf[top as usize];
         if emitter {
-            return leaf;
+            return self.emitter_shooter(leaf);
         }
         let top_power = power(top);
         let top_radiosity = top_power / area(top).max(f64::MIN_POSITIVE);
@@ -263,6 +264,37 @@ impl ShooterTree {
         best
     }
 }
+
+impl ShooterTree {
+    /// An emitter shoots in parts of a fixed size, whatever the mesh: the
+    /// highest ancestor of `leaf` at least [`EMITTER_LEVELS`] below its
+    /// patch's root (a quad light in 4 x 4 parts), so that direct shadows
+    /// are sampled over the light's area as finely on a coarse mesh as on
+    /// a fine one, and a fine mesh costs no more light shots.
+    fn emitter_shooter(&self, leaf: u32) -> u32 {
+        let mut chain = vec![leaf];
+        let mut n = self.nodes[leaf as usize].parent;
+        while n != u32::MAX {
+            chain.push(n);
+            n = self.nodes[n as usize].parent;
+        }
+        // chain runs from the leaf (k = 0) to the root; chain[k] lies
+        // len - 1 - k levels below the root.
+        let depth = |k: usize| chain.len() - 1 - k;
+        chain
+            .iter()
+            .enumerate()
+            .rev()
+            .find(|&(k, &m)| {
+                depth(k) >= EMITTER_LEVELS
+                    && self.nodes[m as usize].polygon.len() <= MAX_NODE_VERTICES
+            })
+            .map_or(leaf, |(_, &m)| m)
+    }
+}
+
+/// Subdivision levels between an emitter patch and its shooting parts.
+pub const EMITTER_LEVELS: usize = 2;
 
 /// When a region shoots instead of its elements (see [`ShooterTree::shooter`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -399,11 +431,12 @@ mod tests {
         let n = tree.shooter(top, false, &rule, even, area);
         let count = tree.elements(n).len() as f64;
         assert!(count > 1.0 && count <= rule.max_gain, "{count} elements");
-        // Emitters shoot element by element.
-        assert_eq!(
-            tree.shooter(top, true, &rule, even, area),
-            tree.leaf[top as usize]
-        );
+        // Emitters shoot in parts two levels below their patch (the floor
+        // is no emitter, but its tree has the same shape).
+        let part = tree.shooter(top, true, &rule, even, area);
+        let parent = tree.nodes[part as usize].parent;
+        let root = tree.nodes[parent as usize].parent;
+        assert_eq!(tree.nodes[root as usize].parent, u32::MAX);
         // One bright element among dark ones shoots alone.
         let spot = |e: u32| if e == top { 100.0 * area(e) } else { even(e) };
         assert_eq!(

@@ -78,6 +78,24 @@ fn missing_scene_prints_its_hint_once() {
     assert_eq!(err.matches("no such file").count(), 1, "{err}");
 }
 
+/// Regression: `--max-edge 1e-9` meshed 16 million elements and ran until
+/// killed, and `--max-edge 1` built 6.75 million in 72 s. A mesh that cannot
+/// fit is refused before meshing, with its size and what to do.
+#[test]
+fn a_mesh_that_cannot_fit_is_refused_before_meshing() {
+    let dir = temp_dir("too-fine");
+    for max_edge in ["1e-9", "1"] {
+        let out = vkrad(&["cornell", "--max-edge", max_edge, "-o", "x.png"], &dir);
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{err}");
+        assert!(
+            err.contains("would make") && err.contains("hint: use a larger --max-edge"),
+            "{err}"
+        );
+        assert!(!dir.join("x.png").exists());
+    }
+}
+
 /// Every built-in scene is named in `--help`.
 #[test]
 fn help_names_every_built_in_scene() {
