@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Draws bench/race-cornell.png and bench/race-cornell.json: image error
+against wall seconds for the path tracer (Mitsuba 3, warm and cold) and for
+vkrad's element and hierarchical solvers, from the runs of
+bench/pathtracer/compare.py (out/race-cornell-hierarchical.json, which holds
+the path-tracer curve, and out/race-cornell-element.json)."""
+import json, os
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+here = os.path.dirname(os.path.abspath(__file__))
+out = os.path.join(here, "pathtracer", "out")
+hier = json.load(open(os.path.join(out, "race-cornell-hierarchical.json")))
+elem = json.load(open(os.path.join(out, "race-cornell-element.json")))
+fig, ax = plt.subplots(figsize=(7.5, 5), dpi=110)
+pt = hier["pathtracer"]
+ax.loglog([p["cold_total_s"] for p in pt], [p["rel_rmse_lit"] for p in pt], "o-", color="black",
+          label="path tracer (Mitsuba 3 llvm, whole command)")
+for name, doc, colour in [("vkrad element-by-element", elem, "tab:red"), ("vkrad hierarchical", hier, "tab:blue")]:
+    runs = doc["vkrad"]
+    ax.loglog([r["wall_s"] for r in runs], [r["rel_rmse_lit"] for r in runs], "s-", color=colour,
+              label=name + " (whole command, --converge 1e-1 .. 1e-3)")
+ax.axhline(0.03, color="grey", ls="--", lw=1)
+ax.text(ax.get_xlim()[0] * 1.2, 0.031, "3%", color="grey")
+ax.set_xlabel("wall seconds (2 cores, lavapipe for vkrad)")
+ax.set_ylabel("relative RMSE over lit pixels")
+ax.set_title("Cornell box 256x256 against a 65,536-spp reference")
+ax.grid(True, which="both", alpha=0.3)
+ax.legend(fontsize=8)
+fig.tight_layout()
+fig.savefig(os.path.join(here, "race-cornell.png"))
+summary = {
+    "reference": hier["reference"],
+    "metric": hier["metric"],
+    "pathtracer": pt,
+    "pathtracer_seconds_to_3%": hier["pt_cold_s_to_0.03"],
+    "pathtracer_seconds_to_1%": hier["pt_cold_s_to_0.01"],
+    "vkrad_element": elem["vkrad"],
+    "vkrad_hierarchical": hier["vkrad"],
+    "machine": hier["machine"],
+}
+json.dump(summary, open(os.path.join(here, "race-cornell.json"), "w"), indent=1)
+print("wrote race-cornell.png/.json")
