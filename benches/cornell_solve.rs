@@ -1,8 +1,13 @@
-//! One full progressive-refinement solve of the built-in Cornell box at
-//! about 10,000 elements: shots per second and GPU time per pass (Vulkan
-//! timestamps). Medians over `--runs` solves, each on a fresh engine.
+//! Progressive-refinement solves of the built-in Cornell box at about
+//! 10,000 elements, element by element and hierarchically side by side in
+//! one run: shots per second and GPU time per pass (Vulkan timestamps).
+//! Medians over `--runs` solves, each on a fresh engine. The element solver
+//! is cut at `--element-shots` (default 3,000; its full solve takes tens of
+//! thousands of shots), so its rates are per shot; the hierarchical one
+//! runs to the stop.
 //!
-//!     cargo bench --bench cornell_solve -- [--runs N] [--res PIXELS] [--max-shots N] [--device SEL]
+//!     cargo bench --bench cornell_solve -- [--runs N] [--res PIXELS] [--converge F]
+//!         [--element-shots N] [--device SEL]
 
 use std::time::Instant;
 
@@ -10,12 +15,13 @@ mod common;
 
 use common::{arg, device_selector, median};
 use vkrad::gpu::{Device, DeviceOptions};
-use vkrad::solve::{solve, SolveSettings};
+use vkrad::solve::{solve, Shooting, SolveSettings};
 
 fn main() {
     let runs: usize = arg("--runs", 3);
     let res: u32 = arg("--res", 256);
-    let max_shots: usize = arg("--max-shots", 100_000);
+    let element_shots: usize = arg("--element-shots", 3_000);
+    let converge: f64 = arg("--converge", 1e-3);
     let selector = device_selector();
     let scene = vkrad::scene::load_builtin("cornell")
         .expect("built-in cornell")
@@ -27,25 +33,42 @@ fn main() {
         validate: false,
     })
     .expect("a Vulkan device");
-    let settings = SolveSettings {
-        hemicube_res: res,
-        converge: 1e-3,
-        max_shots,
-        ..Default::default()
-    };
     println!(
-        "cornell_solve: {} ({}), {} elements, {} triangles, hemicube {res}px, converge 1e-3",
+        "cornell_solve: {} ({}), {} elements, {} triangles, hemicube {res}px, converge {converge:e}",
         device.info.name,
         device.info.kind,
         mesh.elements.len(),
         mesh.triangle_count()
     );
+    for (name, shooting, max_shots) in [
+        ("element", Shooting::Element, element_shots),
+        ("hierarchical", SolveSettings::default().shooting, 100_000),
+    ] {
+        let settings = SolveSettings {
+            hemicube_res: res,
+            converge,
+            max_shots,
+            shooting,
+            ..Default::default()
+        };
+        println!("{name} shooting (at most {max_shots} shots):");
+        run(&device, &scene, &mesh, &settings, runs);
+    }
+}
+
+fn run(
+    device: &std::sync::Arc<Device>,
+    scene: &vkrad::scene::Scene,
+    mesh: &vkrad::mesh::Mesh,
+    settings: &SolveSettings,
+    runs: usize,
+) {
     let mut walls = vec![];
     let mut rates = vec![];
     let mut last = None;
     for run in 0..runs {
         let t = Instant::now();
-        let sol = solve(&device, &scene, &mesh, &settings, |_| true).expect("solve");
+        let sol = solve(device, scene, mesh, settings, |_| true).expect("solve");
         let wall = t.elapsed().as_secs_f64();
         println!(
             "  run {run}: {} shots in {wall:.2} s = {:.1} shots/s, residual {:.2e}",

@@ -38,7 +38,7 @@ fn main() {
         device.info.name, device.info.kind
     );
     let mut rows = vec![];
-    for divisions in [12.0f32, 24.0, 48.0, 96.0, 192.0] {
+    for divisions in [12.0f32, 24.0, 48.0, 96.0, 136.0] {
         let max_edge = scene.extent() / divisions;
         if vkrad::mesh::element_count(&scene, max_edge) as usize > max_elements {
             break;
@@ -83,7 +83,7 @@ fn main() {
         "scene": "cornell",
         "converge": converge,
         "hemicube_res": 256,
-        "what": "wall seconds of solve() (engine set-up included) against element count; uniform meshes at extent / 12, 24, 48, 96, 192",
+        "what": "wall seconds of solve() (engine set-up included) against element count; uniform meshes at extent / 12, 24, 48, 96, 136",
         "runs": rows,
     });
     vkrad::output::write_atomically(std::path::Path::new(&out), |w| {

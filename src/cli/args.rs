@@ -102,7 +102,7 @@ impl RenderArgs {
     pub(crate) fn shooting(&self) -> Shooting {
         match self.shooting {
             ShootingArg::Hierarchical => Shooting::Hierarchical(HierarchyRule {
-                max_gain: self.max_gain,
+                max_share: self.max_share,
                 uniformity: self.uniformity,
             }),
             ShootingArg::Element => Shooting::Element,
@@ -170,10 +170,10 @@ pub(crate) struct RenderArgs {
     /// progressive refinement; always so with --ff raytrace|analytic).
     #[arg(long, value_enum, default_value_t = ShootingArg::Hierarchical)]
     pub(crate) shooting: ShootingArg,
-    /// Hierarchical shooting: a region's shot carries at most this many
-    /// times the power of the element with the most unshot power.
-    #[arg(long, default_value_t = HierarchyRule::default().max_gain, value_name = "RATIO")]
-    pub(crate) max_gain: f64,
+    /// Hierarchical shooting: a region's shot carries at most this share
+    /// of all the unshot power.
+    #[arg(long, default_value_t = HierarchyRule::default().max_share, value_name = "FRACTION")]
+    pub(crate) max_share: f64,
     /// Hierarchical shooting: no element of a shooting region may be more
     /// than this many times brighter or dimmer (unshot) than its mean.
     #[arg(long, default_value_t = HierarchyRule::default().uniformity, value_name = "RATIO")]

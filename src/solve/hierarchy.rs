@@ -215,7 +215,8 @@ impl ShooterTree {
 
     /// The region that shoots for element `top`, the element with the most
     /// unshot power: the highest ancestor of its leaf (up to its patch)
-    /// whose shot carries at most `max_gain` times `top`'s power and whose
+    /// whose shot carries at most `max_share` of all the unshot power
+    /// (`unshot_total`) and whose
     /// elements' unshot radiosity stays within a factor `uniformity` of the
     /// region's mean, so that the region's light is spread about evenly
     /// over it. Emitters
@@ -229,6 +230,7 @@ impl ShooterTree {
         rule: &HierarchyRule,
         power: impl Fn(u32) -> f64,
         area: impl Fn(u32) -> f64,
+        unshot_total: f64,
     ) -> u32 {
         let leaf = self.leaf[top as usize];
         if emitter {
@@ -247,7 +249,7 @@ impl ShooterTree {
                     total += p;
                     dimmest = dimmest.min(p / area(e).max(f64::MIN_POSITIVE));
                 }
-                if total > rule.max_gain * top_power {
+                if total > rule.max_share * unshot_total {
                     break;
                 }
                 let mean = total / (node.area as f64).max(f64::MIN_POSITIVE);
@@ -299,9 +301,11 @@ pub const EMITTER_LEVELS: usize = 2;
 /// When a region shoots instead of its elements (see [`ShooterTree::shooter`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HierarchyRule {
-    /// A shot carries at most this many times the power of the element
-    /// with the most unshot power.
-    pub max_gain: f64,
+    /// A region's shot carries at most this share of all the unshot power
+    /// (a single element may carry more). A share, not a multiple of an
+    /// element's power, so that the number of shots does not grow with the
+    /// mesh.
+    pub max_share: f64,
     /// No element's unshot radiosity may be more than this many times the
     /// region's mean, or less than the mean over this.
     pub uniformity: f64,
@@ -310,7 +314,7 @@ pub struct HierarchyRule {
 impl Default for HierarchyRule {
     fn default() -> Self {
         HierarchyRule {
-            max_gain: 64.0,
+            max_share: 0.1,
             uniformity: 2.0,
         }
     }
@@ -428,19 +432,21 @@ mod tests {
         let area = |e: u32| mesh.elements[e as usize].area as f64;
         let even = |e: u32| if floor.contains(&e) { area(e) } else { 0.0 };
         let rule = HierarchyRule::default();
-        let n = tree.shooter(top, false, &rule, even, area);
+        let floor_power: f64 = floor.clone().map(even).sum();
+        let n = tree.shooter(top, false, &rule, even, area, floor_power);
         let count = tree.elements(n).len() as f64;
-        assert!(count > 1.0 && count <= rule.max_gain, "{count} elements");
+        let floor_count = floor.len() as f64;
+        assert!(count > 1.0 && count <= rule.max_share * floor_count, "{count} elements");
         // Emitters shoot in parts two levels below their patch (the floor
         // is no emitter, but its tree has the same shape).
-        let part = tree.shooter(top, true, &rule, even, area);
+        let part = tree.shooter(top, true, &rule, even, area, floor_power);
         let parent = tree.nodes[part as usize].parent;
         let root = tree.nodes[parent as usize].parent;
         assert_eq!(tree.nodes[root as usize].parent, u32::MAX);
         // One bright element among dark ones shoots alone.
         let spot = |e: u32| if e == top { 100.0 * area(e) } else { even(e) };
         assert_eq!(
-            tree.shooter(top, false, &rule, spot, area),
+            tree.shooter(top, false, &rule, spot, area, floor_power),
             tree.leaf[top as usize]
         );
     }

@@ -169,6 +169,7 @@ pub fn solve(
                     &rule,
                     |e| power(unshot[e as usize], areas[e as usize]),
                     |e| areas[e as usize] as f64,
+                    unshot_power,
                 )
             }
             _ => shots_engine.tree().leaf[shooter],
