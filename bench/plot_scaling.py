@@ -39,4 +39,6 @@ fig.tight_layout()
 out = os.path.join(here, "scaling.png")
 fig.savefig(out)
 doc["fitted_exponent"] = fits
+path = sys.argv[1] if len(sys.argv) > 1 else os.path.join(here, "scaling.json")
+json.dump(doc, open(path, "w"), indent=2)
 print("wrote", out, "fits:", fits)
