@@ -139,7 +139,10 @@ fn simple_loads() {
 
 #[test]
 fn builtins_and_scene_args() {
-    assert_eq!(builtin_names(), ["cornell", "simple", "r", "vise", "rfield"]);
+    assert_eq!(
+        builtin_names(),
+        ["cornell", "simple", "r", "vise", "rfield"]
+    );
     for name in builtin_names() {
         assert!(load_builtin(name).unwrap().is_ok());
     }

@@ -436,7 +436,10 @@ mod tests {
         let n = tree.shooter(top, false, &rule, even, area, floor_power);
         let count = tree.elements(n).len() as f64;
         let floor_count = floor.len() as f64;
-        assert!(count > 1.0 && count <= rule.max_share * floor_count, "{count} elements");
+        assert!(
+            count > 1.0 && count <= rule.max_share * floor_count,
+            "{count} elements"
+        );
         // Emitters shoot in parts two levels below their patch (the floor
         // is no emitter, but its tree has the same shape).
         let part = tree.shooter(top, true, &rule, even, area, floor_power);

@@ -80,6 +80,7 @@ const B_RANKS: u32 = 8;
 #[derive(Clone, Copy)]
 enum Submission {
     Shoot,
+    RegionShoot,
     FormFactors,
     UploadShoot,
 }
@@ -88,6 +89,7 @@ impl Submission {
     fn cpu_label(self) -> &'static str {
         match self {
             Submission::Shoot => "hemicube shot (CPU timer)",
+            Submission::RegionShoot => "region shot (CPU timer)",
             Submission::FormFactors => "hemicube (CPU timer)",
             Submission::UploadShoot => "uploaded shot (CPU timer)",
         }
@@ -121,10 +123,12 @@ pub struct ShootingEngine {
     region_pipeline: Pipeline,
     shoot_pipeline: Pipeline,
     shoot_cmds: Commands,
+    region_shoot_cmds: Commands,
     ff_cmds: Commands,
     readback_cmds: Commands,
     upload_shoot_cmds: Commands,
     shoot_profiler: Option<GpuProfiler>,
+    region_shoot_profiler: Option<GpuProfiler>,
     ff_profiler: Option<GpuProfiler>,
     upload_profiler: Option<GpuProfiler>,
     /// Time per stage, accumulated over all submissions.
@@ -265,15 +269,18 @@ impl ShootingEngine {
             region_pipeline,
             shoot_pipeline,
             shoot_cmds: Commands::new(device, "shoot commands")?,
+            region_shoot_cmds: Commands::new(device, "region-shoot commands")?,
             ff_cmds: Commands::new(device, "form-factor commands")?,
             readback_cmds: Commands::new(device, "readback commands")?,
             upload_shoot_cmds: Commands::new(device, "upload-shoot commands")?,
             shoot_profiler: GpuProfiler::new(device, "shoot timestamps", 8)?,
+            region_shoot_profiler: GpuProfiler::new(device, "region-shoot timestamps", 8)?,
             ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
             upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
             times: StageTimes::default(),
         };
-        engine.record_shoot()?;
+        engine.record_shoot(false)?;
+        engine.record_shoot(true)?;
         engine.record_form_factors()?;
         engine.record_upload_shoot()?;
         Ok(engine)
@@ -368,13 +375,26 @@ impl ShootingEngine {
         }
     }
 
-    fn record_shoot(&mut self) -> Result<()> {
-        let cmd = self.shoot_cmds.begin()?;
-        let mut profiler = self.shoot_profiler.take();
+    /// The hemicube shot, with the region correction between reduction and
+    /// shooting when `region` (an element shot skips it: even a dispatch
+    /// that returns at once costs milliseconds on lavapipe).
+    fn record_shoot(&mut self, region: bool) -> Result<()> {
+        let (cmds, mut profiler) = if region {
+            (&self.region_shoot_cmds, self.region_shoot_profiler.take())
+        } else {
+            (&self.shoot_cmds, self.shoot_profiler.take())
+        };
+        let cmd = cmds.begin()?;
         self.record_hemicube(cmd, &mut profiler);
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
+        if !region {
+            // Reduction atomics -> shooting read of ff.
+            self.record_shooting(cmd, &mut profiler, compute);
+            self.shoot_profiler = profiler;
+            return self.shoot_cmds.end();
+        }
         barriers(
             &self.device,
             cmd,
@@ -382,8 +402,7 @@ impl ShootingEngine {
             &[buffer_barrier(self.ff.raw(), compute, compute)],
             &[],
         );
-        // SAFETY: cmd is recording; handles owned by self. The shader
-        // returns at once for element shots (mode 0).
+        // SAFETY: cmd is recording; handles owned by self.
         unsafe {
             let raw = &self.device.raw;
             raw.cmd_bind_pipeline(
@@ -402,8 +421,8 @@ impl ShootingEngine {
             &mut profiler,
             (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
         );
-        self.shoot_profiler = profiler;
-        self.shoot_cmds.end()
+        self.region_shoot_profiler = profiler;
+        self.region_shoot_cmds.end()
     }
 
     /// A shot whose form factors the CPU computed (ray-traced or analytic):
@@ -585,7 +604,11 @@ impl ShootingEngine {
     /// unused).
     pub fn shoot(&mut self, shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
         self.write_params(shooter)?;
-        self.submit(Submission::Shoot)?;
+        self.submit(if shooter.region.is_some() {
+            Submission::RegionShoot
+        } else {
+            Submission::Shoot
+        })?;
         self.readback.read(self.element_count as usize)
     }
 
@@ -637,6 +660,7 @@ impl ShootingEngine {
     fn submit(&mut self, which: Submission) -> Result<()> {
         let (cmds, profiler) = match which {
             Submission::Shoot => (&self.shoot_cmds, &self.shoot_profiler),
+            Submission::RegionShoot => (&self.region_shoot_cmds, &self.region_shoot_profiler),
             Submission::FormFactors => (&self.ff_cmds, &self.ff_profiler),
             Submission::UploadShoot => (&self.upload_shoot_cmds, &self.upload_profiler),
         };
