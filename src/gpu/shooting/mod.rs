@@ -25,6 +25,7 @@ use crate::error::{Error, Result};
 
 mod params;
 mod setup;
+mod upload_shot;
 pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
@@ -425,61 +426,9 @@ impl ShootingEngine {
         self.region_shoot_cmds.end()
     }
 
-    /// A shot whose form factors the CPU computed (ray-traced or analytic):
-    /// copy them from the host-visible upload buffer into `ff`, then shoot.
-    fn record_upload_shoot(&mut self) -> Result<()> {
-        let cmd = self.upload_shoot_cmds.begin()?;
-        let mut profiler = self.upload_profiler.take();
-        if let Some(p) = profiler.as_mut() {
-            p.begin(cmd);
-        }
-        barriers(
-            &self.device,
-            cmd,
-            // Previous shooting/readback reads of ff -> this upload copy (WAR).
-            &[buffer_barrier(
-                self.ff.raw(),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::empty(),
-                ),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-            )],
-            &[],
-        );
-        let region = [vk::BufferCopy {
-            src_offset: 0,
-            dst_offset: 0,
-            size: 4 * self.element_count as u64,
-        }];
-        // SAFETY: both buffers hold element_count u32s.
-        unsafe {
-            self.device
-                .raw
-                .cmd_copy_buffer(cmd, self.ff_upload.raw(), self.ff.raw(), &region)
-        };
-        if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "form-factor upload");
-        }
-        // Upload copy -> shooting read of ff.
-        self.record_shooting(
-            cmd,
-            &mut profiler,
-            (
-                vk::PipelineStageFlags2::COPY,
-                vk::AccessFlags2::TRANSFER_WRITE,
-            ),
-        );
-        self.upload_profiler = profiler;
-        self.upload_shoot_cmds.end()
-    }
-
     /// The shooting dispatch and the unshot readback, after `ff` was written
     /// by `ff_producer` (stage, access).
-    fn record_shooting(
+    pub(super) fn record_shooting(
         &self,
         cmd: vk::CommandBuffer,
         profiler: &mut Option<GpuProfiler>,
