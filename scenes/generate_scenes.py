@@ -143,6 +143,15 @@ def r_letter(obj, dx=0.0, dz=0.0):
         obj.face([(ax + dx, ay, z_front), (ax + dx, ay, z_back), (bx + dx, by, z_back), (bx + dx, by, z_front)])
 
 
+def letter_mtl(name):
+    """The materials of the letter scenes: floor, letter, light."""
+    with open(os.path.join(HERE, name), "w", newline="\n") as f:
+        f.write("# Kd: diffuse reflectance (0..1). Ke: emitted radiance L_e (RGB).\n\n"
+                "newmtl floor\nKd 0.7 0.7 0.7\n\n"
+                "newmtl letter\nKd 0.75 0.2 0.15\n\n"
+                "newmtl light\nKd 0 0 0\nKe 10 10 10\n")
+
+
 def r_scene():
     obj = Obj(
         "The \"R\" scene (after fig. 17 of the thesis): an extruded letter R\n"
@@ -159,11 +168,7 @@ def r_scene():
     obj.group("light", "light")
     light(obj, -1.0, 7.0, 2.0, 0.5)
     obj.write(os.path.join(HERE, "r.obj"))
-    with open(os.path.join(HERE, "r.mtl"), "w", newline="\n") as f:
-        f.write("# Kd: diffuse reflectance (0..1). Ke: emitted radiance L_e (RGB).\n\n"
-                "newmtl floor\nKd 0.7 0.7 0.7\n\n"
-                "newmtl letter\nKd 0.75 0.2 0.15\n\n"
-                "newmtl light\nKd 0 0 0\nKe 10 10 10\n")
+    letter_mtl("r.mtl")
     return obj.faces
 
 
@@ -233,11 +238,7 @@ def rfield_scene(letters=175, columns=14):
     obj.group("light", "light")
     light(obj, width / 2, 30.0, depth / 2, 4.0)
     obj.write(os.path.join(HERE, "rfield.obj"))
-    with open(os.path.join(HERE, "rfield.mtl"), "w", newline="\n") as f:
-        f.write("# Kd: diffuse reflectance (0..1). Ke: emitted radiance L_e (RGB).\n\n"
-                "newmtl floor\nKd 0.7 0.7 0.7\n\n"
-                "newmtl letter\nKd 0.75 0.2 0.15\n\n"
-                "newmtl light\nKd 0 0 0\nKe 10 10 10\n")
+    letter_mtl("rfield.mtl")
     return obj.faces
 
 

@@ -98,6 +98,16 @@ fn closed_room_energy_balance_rho_0_8() {
     check(0.8);
 }
 
+/// The mean of an image's pixels (sum of rgb).
+fn mean_radiance(image: &vkrad::output::image_io::HdrImage) -> f64 {
+    let sum: f64 = image
+        .pixels
+        .iter()
+        .map(|p| (p[0] + p[1] + p[2]) as f64)
+        .sum();
+    sum / image.pixels.len() as f64
+}
+
 /// The ambient term (Cohen et al. 1988) makes an early preview closer to
 /// the converged image: the mean radiance of a partial solution plus
 /// ambient is nearer the converged mean than the partial solution alone.
@@ -120,13 +130,7 @@ fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
             ..Default::default()
         };
         let r = run(&job, Some(device.clone()), |_| true).unwrap();
-        let sum: f64 = r
-            .image
-            .pixels
-            .iter()
-            .map(|p| (p[0] + p[1] + p[2]) as f64)
-            .sum();
-        (sum / r.image.pixels.len() as f64, r.ambient.is_some())
+        (mean_radiance(&r.image), r.ambient.is_some())
     };
     let (converged, _) = mean(100_000, true);
     let (plain, _) = mean(40, false);
@@ -160,13 +164,7 @@ fn a_loosely_converged_image_is_not_dark() {
         };
         let r = run(&job, Some(device.clone()), |_| true).unwrap();
         assert!(r.solution.converged);
-        let sum: f64 = r
-            .image
-            .pixels
-            .iter()
-            .map(|p| (p[0] + p[1] + p[2]) as f64)
-            .sum();
-        sum / r.image.pixels.len() as f64
+        mean_radiance(&r.image)
     };
     let tight = mean(1e-4);
     let loose = mean(1e-1);
