@@ -101,17 +101,17 @@ pub fn solve(
 ) -> Result<Solution> {
     let start = Instant::now();
     let gpu_mesh = GpuMesh::new(scene, mesh);
+    let mut unshot = gpu_mesh.emission.clone();
     let mut shots_engine = Shots::new(
         device,
         scene,
         mesh,
-        &gpu_mesh,
+        gpu_mesh,
         settings.method,
         settings.hemicube_res,
     )?;
 
     let areas: Vec<f32> = mesh.elements.iter().map(|e| e.area).collect();
-    let mut unshot = gpu_mesh.emission.clone();
     let keys: Vec<f32> = unshot
         .iter()
         .zip(&areas)

@@ -212,7 +212,7 @@ impl<'a> Shots<'a> {
         device: &Arc<Device>,
         scene: &'a Scene,
         mesh: &'a Mesh,
-        gpu_mesh: &GpuMesh,
+        gpu_mesh: GpuMesh,
         method: FormFactorMethod,
         hemicube_res: u32,
     ) -> Result<Self> {
@@ -237,7 +237,8 @@ impl<'a> Shots<'a> {
             hemicube,
             engine,
             cpu,
-            tree: gpu_mesh.tree.clone(),
+            // The engine holds its own copies: keep only the tree.
+            tree: gpu_mesh.tree,
             vertex_patch,
             vertex_radiosity,
             cpu_times: StageTimes::default(),
