@@ -5,13 +5,13 @@ layout(set = 0, binding = 0, std140) uniform ShotParams {
     mat4 face_view_proj[5];
     // rgb: the shooter's unshot radiosity; w: the area of its elements.
     vec4 shooter_unshot;
-    uint shooter;
     uint element_count;
     // Form factors: 0 = the hemicube's own (element shots), 1 = exact x
     // visibility from a region's outline (glsl/ff_node.comp).
     uint mode;
     // Item-buffer pixels of the hemicube (its resolution, for ff_node).
     uint hemicube_pixels;
+    uint pad0;
     // The shooter's elements: ranks [x, y) (the shooting hierarchy's order).
     uvec4 shooter_ranks;
     // The shooting region (mode 1): outline corners (xyz), counter-clockwise

@@ -174,14 +174,8 @@ pub fn solve(
             }
             _ => shots_engine.tree().leaf[shooter],
         };
-        let shot_power: f64 = shots_engine
-            .tree()
-            .elements(node)
-            .iter()
-            .map(|&e| power(unshot[e as usize], areas[e as usize]))
-            .sum();
         let before = unshot_power;
-        let after = shots_engine.shoot(node, &unshot, shots as u64, hierarchical)?;
+        let (after, shot_power) = shots_engine.shoot(node, &unshot, shots as u64, hierarchical)?;
         // Re-key only what changed; sum the unshot power afresh so rounding
         // cannot drift.
         unshot_power = 0.0;

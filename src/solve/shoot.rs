@@ -257,14 +257,14 @@ impl<'a> Shots<'a> {
     /// hemicube's own at its centre (element shooting, `node` a leaf).
     /// `salt` varies the CPU methods' ray pattern per shot; they shoot
     /// leaves only. Returns every element's unshot radiosity after the shot
-    /// (rgba, a unused).
+    /// (rgba, a unused) and the power shot (mean channel).
     pub fn shoot(
         &mut self,
         node: u32,
         unshot: &[[f32; 4]],
         salt: u64,
         region: bool,
-    ) -> Result<Vec<[f32; 4]>> {
+    ) -> Result<(Vec<[f32; 4]>, f64)> {
         let n = &self.tree.nodes[node as usize];
         let mut sum = [0.0f64; 3];
         for &e in self.tree.elements(node) {
@@ -275,12 +275,14 @@ impl<'a> Shots<'a> {
         }
         let area = n.area.max(f32::MIN_POSITIVE);
         let mean = sum.map(|x| (x / area as f64) as f32);
+        let shot_power = (sum[0] + sum[1] + sum[2]) / 3.0;
         let ranks = (n.range.start, n.range.end);
         let Some(cpu) = &self.cpu else {
             let faces = self
                 .hemicube
                 .face_view_proj(n.centre, n.normal, near_plane(area));
-            // How the unshot light spreads over the region's children.
+            // How the unshot light spreads over the region's children: each
+            // child's mean unshot radiosity over the region's.
             let level = |m: u32| -> f64 {
                 let node = &self.tree.nodes[m as usize];
                 let power: f64 = self
@@ -294,13 +296,13 @@ impl<'a> Shots<'a> {
                     .sum();
                 power / (node.area as f64).max(f64::MIN_POSITIVE)
             };
-            let parts: Vec<(&[glam::Vec3], f32)> = if n.children.len() > 1 {
-                let mean = level(node).max(f64::MIN_POSITIVE);
+            let region_level = ((sum[0] + sum[1] + sum[2]) / area as f64).max(f64::MIN_POSITIVE);
+            let parts: Vec<(&[glam::Vec3], f32)> = if region && n.children.len() > 1 {
                 n.children
                     .iter()
                     .map(|&c| {
                         let child = &self.tree.nodes[c as usize];
-                        (child.polygon.as_slice(), (level(c) / mean) as f32)
+                        (child.polygon.as_slice(), (level(c) / region_level) as f32)
                     })
                     .collect()
             } else {
@@ -314,13 +316,14 @@ impl<'a> Shots<'a> {
                 outline_area: n.polygon_area,
                 parts: &parts,
             });
-            return self.engine.shoot(&Shooter {
+            let after = self.engine.shoot(&Shooter {
                 faces,
                 unshot: mean,
                 area: n.area,
                 ranks,
                 region,
-            });
+            })?;
+            return Ok((after, shot_power));
         };
         let Some(shooter) = n.element else {
             return Err(Error::Invalid(
@@ -342,7 +345,7 @@ impl<'a> Shots<'a> {
             }
         }
         self.cpu_times.add(cpu.stage_name(), t.elapsed());
-        self.engine.shoot_with(
+        let after = self.engine.shoot_with(
             &ff,
             &Shooter {
                 faces: [glam::Mat4::IDENTITY; 5],
@@ -351,7 +354,8 @@ impl<'a> Shots<'a> {
                 ranks,
                 region: None,
             },
-        )
+        )?;
+        Ok((after, shot_power))
     }
 
     /// Every element's radiosity, the vertex radiosity of the CPU methods,

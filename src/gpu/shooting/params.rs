@@ -12,11 +12,11 @@ pub struct ShotParams {
     pub face_view_proj: [[f32; 16]; 5],
     /// rgb: the shooter's unshot radiosity; w: its elements' area.
     pub shooter_unshot: [f32; 4],
-    pub shooter: u32,
     pub element_count: u32,
     /// 0: the hemicube's form factors; 1: exact x visibility from `outline`.
     pub mode: u32,
     pub hemicube_pixels: u32,
+    pub _pad0: u32,
     /// The shooter's elements: ranks [x, y).
     pub shooter_ranks: [u32; 4],
     pub outline: [[f32; 4]; MAX_OUTLINE],
@@ -85,10 +85,10 @@ impl ShootingEngine {
         let mut params = ShotParams {
             face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
             shooter_unshot: [r, g, b, shooter.area],
-            shooter: shooter.ranks.0,
             element_count: self.element_count,
             mode: 0,
             hemicube_pixels: self.atlas.0 * self.atlas.1,
+            _pad0: 0,
             shooter_ranks: [shooter.ranks.0, shooter.ranks.1, 0, 0],
             outline: [[0.0; 4]; MAX_OUTLINE],
             centre_radius: [0.0; 4],
