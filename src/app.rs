@@ -6,6 +6,8 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+use glam::Vec3;
+
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
@@ -17,7 +19,9 @@ use crate::output::tonemap::auto_exposure;
 use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
-use crate::solve::{solve, FormFactorMethod, Progress, Solution, SolveSettings};
+use crate::solve::solution::add_ambient;
+use crate::solve::vertex_gather::{gather_vertices, VertexGather};
+use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -41,6 +45,17 @@ pub struct Job {
     /// Show the ambient term for the light still unshot (whenever any is
     /// left: previews, interrupts, and solutions converged to a tolerance).
     pub ambient: bool,
+    /// Vertex values for the image and the lit mesh: gathered at every
+    /// vertex from the solved elements (`Some`, the default), or the
+    /// solver's own (`None`).
+    pub final_gather: Option<VertexGather>,
+    /// With the final gather: the maximum element edge of the display mesh
+    /// whose vertices are gathered and drawn; `None`: half the solve's.
+    pub display_edge: Option<f32>,
+    /// The display mesh's mesher; `None`: the solve's. The default is the
+    /// discontinuity mesher: shadow and contact boundaries become mesh
+    /// edges, so the image does not smear them.
+    pub display_mesher: Option<Mesher>,
     /// A-posteriori refinement passes (discontinuity mesher only): split
     /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
     /// over `tolerance` x the mean radiosity, worst first and within
@@ -69,6 +84,9 @@ impl Job {
             check_mesh: true,
             wireframe: false,
             ambient: true,
+            final_gather: Some(VertexGather::default()),
+            display_edge: None,
+            display_mesher: Some(Mesher::Discontinuity { subdivide: true }),
             adaptive: 0,
             tolerance: 0.02,
             max_elements: None,
@@ -107,6 +125,11 @@ pub struct Report {
     pub device_kind: &'static str,
     pub scene: Scene,
     pub mesh: Mesh,
+    /// The finer mesh the image and the lit mesh show, when there is one
+    /// (see [`Job::display_edge`]).
+    pub display_mesh: Option<Mesh>,
+    /// Whether the vertex values shown were gathered (`Job::final_gather`).
+    pub gathered: bool,
     pub max_edge: f32,
     pub mesh_report: MeshReport,
     /// What the mesh was estimated to cost before it was built.
@@ -244,6 +267,69 @@ impl Report {
     }
 }
 
+/// Above this many patches the display mesh is uniform whatever the job
+/// asks: the discontinuity mesher's cost grows with the blocker pairs, and
+/// on the 23,802-patch `rfield` it takes longer than the solve.
+pub const DISPLAY_DISCONTINUITY_MAX_PATCHES: usize = 5000;
+
+/// The finer mesh the final gather shades: the display mesher at the
+/// display edge, unless both are the solve's (a coarser mesh for the
+/// display is never built). A discontinuity display mesh that cannot be
+/// built (too many patches, or a mesh that fails its check) falls back to
+/// a uniform one, with a warning.
+fn display_mesh(
+    job: &Job,
+    scene: &Scene,
+    device: &Arc<Device>,
+    builder: &mut MeshBuilder,
+    warnings: &mut Vec<String>,
+) -> Result<Option<Mesh>> {
+    let solved = *builder.settings();
+    let edge = job
+        .display_edge
+        .unwrap_or(0.5 * solved.max_edge)
+        .min(solved.max_edge);
+    let mut mesher = job.display_mesher.unwrap_or(solved.mesher);
+    if mesher != Mesher::Uniform
+        && solved.mesher == Mesher::Uniform
+        && scene.patches.len() > DISPLAY_DISCONTINUITY_MAX_PATCHES
+    {
+        warnings.push(format!(
+            "{} patches: the display mesh is uniform (a discontinuity display mesh is built up to {DISPLAY_DISCONTINUITY_MAX_PATCHES} patches; --mesh discontinuity meshes shadows anyway)",
+            scene.patches.len()
+        ));
+        mesher = Mesher::Uniform;
+    }
+    if mesher == solved.mesher && edge >= solved.max_edge {
+        return Ok(None);
+    }
+    let build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<Mesh> {
+        let display = if mesher == solved.mesher {
+            builder.build_finer(edge)?.0
+        } else {
+            let settings = MeshSettings {
+                mesher,
+                max_edge: edge,
+                ..solved
+            };
+            MeshBuilder::new(device, scene, settings)?.build(&[])?.0
+        };
+        if job.check_mesh {
+            check_mesh(&display, scene, mesher)?;
+        }
+        Ok(display)
+    };
+    match build(mesher, builder) {
+        Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
+            warnings.push(format!(
+                "the discontinuity display mesh failed its check ({why}); the image shows a uniform mesh"
+            ));
+            build(Mesher::Uniform, builder).map(Some)
+        }
+        other => other.map(Some),
+    }
+}
+
 /// Writes `report` (JSON) atomically.
 pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
     crate::output::write_atomically(path, |w| {
@@ -378,22 +464,54 @@ pub fn run_scene(
         );
     }
 
-    let t = Instant::now();
     let mut gpu_times = solution.times.clone();
-    // An unfinished solution is shown with the ambient term standing in
-    // for the light not yet shot; the exported mesh keeps the solved values.
-    let mut shown = solution.vertex_radiosity(&mesh);
     // Whenever light is left unshot (a preview, an interrupt, or a run that
     // converged to a tolerance), the ambient term stands in for it.
     let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&scene, &mesh));
-    if let Some(a) = ambient {
-        crate::solve::solution::add_ambient(&scene, &mesh, &mut shown, a);
+    let t = Instant::now();
+    let display_mesh = match &job.final_gather {
+        Some(_) if job.adaptive == 0 => {
+            display_mesh(job, &scene, &device, &mut builder, &mut warnings)?
+        }
+        _ => None,
+    };
+    if display_mesh.is_some() {
+        wall.push(("display mesh", t.elapsed().as_secs_f64()));
     }
-    let radiance = crate::render::radiance_of(shown);
+    let t = Instant::now();
+    let shown = match &job.final_gather {
+        Some(settings) => {
+            // Gathered from the elements as shown: the ambient term joins
+            // their light before it is gathered.
+            let mut sources = solution.radiosity.clone();
+            if let Some(a) = ambient {
+                for (e, b) in mesh.elements.iter().zip(&mut sources) {
+                    let rho = scene.patch_material(e.patch).reflectance;
+                    *b = (Vec3::from(*b) + rho * a).to_array();
+                }
+            }
+            let tree = ShooterTree::new(&scene, &mesh);
+            let display = display_mesh.as_ref().unwrap_or(&mesh);
+            gather_vertices(&scene, &mesh, &tree, &sources, display, settings)
+        }
+        None => {
+            let mut shown = solution.vertex_radiosity(&mesh);
+            if let Some(a) = ambient {
+                add_ambient(&scene, &mesh, &mut shown, a);
+            }
+            shown
+        }
+    };
+    if job.final_gather.is_some() {
+        wall.push(("gather", t.elapsed().as_secs_f64()));
+    }
+    let t = Instant::now();
+    let radiance = crate::render::radiance_of(shown.clone());
+    let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
     let image = render_image(
         &device,
         &scene,
-        &mesh,
+        shown_mesh,
         &radiance,
         &camera,
         job.size,
@@ -406,8 +524,7 @@ pub fn run_scene(
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
     save_image(&image, &output, Some(exposure))?;
     if let Some(export) = &job.export {
-        let vertex_radiosity = solution.vertex_radiosity(&mesh);
-        export_mesh(export, &mesh, &vertex_radiosity, exposure)?;
+        export_mesh(export, shown_mesh, &shown, exposure)?;
     }
     wall.push(("write", t.elapsed().as_secs_f64()));
     device.check_validation()?;
@@ -417,6 +534,8 @@ pub fn run_scene(
         device_kind: device.info.kind,
         scene,
         mesh,
+        display_mesh,
+        gathered: job.final_gather.is_some(),
         max_edge,
         mesh_report,
         estimate: cost,

@@ -14,7 +14,7 @@ use crate::output::image_io::HdrImage;
 use crate::scene::{Camera, Scene};
 
 /// Supersampling factor per axis: edges of the Gouraud image are box-filtered.
-pub const SUPERSAMPLE: u32 = 2;
+pub const SUPERSAMPLE: u32 = 4;
 
 /// The scene's own camera, else one framed automatically on its bounds.
 pub fn default_camera(scene: &Scene) -> Camera {

@@ -32,6 +32,9 @@ def main():
     ap.add_argument("--light-elements", type=int, required=True,
                     help="emitter elements in vkrad's mesh (`vkrad mesh SCENE -o m.obj`)")
     ap.add_argument("--vkrad-args", default="")
+    ap.add_argument("--bounces", type=int, default=0,
+                    help="indirect bounces in the reference (Mitsuba max_depth = 2 + BOUNCES); "
+                         "1 judges vkrad's final gather from the first-bounce element solution")
     ap.add_argument("--out", default=os.path.join(C.HERE, "out"))
     a = ap.parse_args()
     w, h = (int(v) for v in a.size.split("x"))
@@ -40,9 +43,9 @@ def main():
     obj = C.parse_obj(obj_path)
     cam = obj["camera"]
     scene, d = C.build_scene(obj, cam, (w, h))
-    d["integrator"] = {"type": "path", "max_depth": 2, "hide_emitters": False}
+    d["integrator"] = {"type": "path", "max_depth": 2 + a.bounces, "hide_emitters": False}
     scene = mi.load_dict(d)
-    ref_path = os.path.join(a.out, f"{name}-direct-ref-{a.spp}.exr")
+    ref_path = os.path.join(a.out, f"{name}-direct-ref-{a.spp}" + (f"-b{a.bounces}" if a.bounces else "") + ".exr")
     if os.path.exists(ref_path):
         ref = C.read_exr(ref_path)
     else:
@@ -60,7 +63,7 @@ def main():
     lum = ref.mean(axis=2)
     lit = (lum > 0.01 * lum.mean()) & ~z["sees_emitter"]
     interior = lit & z["interior"]
-    tag = a.vkrad_args.replace("-", "").replace(" ", "_")
+    tag = a.vkrad_args.replace("-", "").replace(" ", "_") + (f"_b{a.bounces}" if a.bounces else "")
     out = os.path.join(a.out, f"{name}-direct-vkrad{('-' + tag) if tag else ''}.exr")
     rep = out[:-4] + ".json"
     cmd = [a.vkrad, obj_path, "-o", out, "--size", f"{w}x{h}", "--max-shots", str(a.light_elements),

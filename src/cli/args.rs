@@ -117,14 +117,18 @@ pub(crate) enum FfArg {
     Analytic,
 }
 
+impl MesherArg {
+    pub(crate) fn mesher(self, subdivide: bool) -> Mesher {
+        match self {
+            MesherArg::Uniform => Mesher::Uniform,
+            MesherArg::Discontinuity => Mesher::Discontinuity { subdivide },
+        }
+    }
+}
+
 impl MeshArgs {
     pub(crate) fn mesher(&self) -> Mesher {
-        match self.mesher {
-            MesherArg::Uniform => Mesher::Uniform,
-            MesherArg::Discontinuity => Mesher::Discontinuity {
-                subdivide: !self.no_subdivide,
-            },
-        }
+        self.mesher.mesher(!self.no_subdivide)
     }
 
     pub(crate) fn method(&self) -> Result<FormFactorMethod> {
@@ -219,6 +223,22 @@ pub(crate) struct RenderArgs {
     /// ambient term (Cohen et al. 1988) that stands in for unshot light.
     #[arg(long)]
     pub(crate) no_ambient: bool,
+    /// Show the solver's own vertex values (neighbouring elements averaged,
+    /// or the CPU methods' per-vertex form factors) instead of the final
+    /// gather: every vertex's radiosity gathered from the solved elements
+    /// with exact form factors and ray-traced visibility. Faster; biased
+    /// at corners, contacts and shadow edges.
+    #[arg(long)]
+    pub(crate) no_final_gather: bool,
+    /// Longest element edge of the display mesh, whose vertices the final
+    /// gather shades from the elements solved at --max-edge (default: half
+    /// of --max-edge; at most --max-edge).
+    #[arg(long, value_name = "LENGTH")]
+    pub(crate) display_edge: Option<f32>,
+    /// Mesher of the display mesh: discontinuity puts shadow and contact
+    /// boundaries into it, so the image shows them sharp.
+    #[arg(long, value_enum, value_name = "MESHER", default_value_t = MesherArg::Discontinuity)]
+    pub(crate) display_mesh: MesherArg,
     /// Draw the mesh edges over the image (black lines).
     #[arg(long)]
     pub(crate) wireframe: bool,

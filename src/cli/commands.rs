@@ -16,6 +16,7 @@ use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTER
 use vkrad::app::{run_scene, CameraOverride, Job};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
 
 pub(crate) fn devices() -> Result<()> {
@@ -53,6 +54,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.dm_res = args.mesh.dm_res;
     job.wireframe = args.wireframe;
     job.ambient = !args.no_ambient;
+    job.final_gather = (!args.no_final_gather).then(VertexGather::default);
+    job.display_edge = args.display_edge;
+    job.display_mesher = Some(args.display_mesh.mesher(true));
     job.adaptive = args.adaptive;
     job.tolerance = args.tolerance;
     job.max_elements = args.max_elements;

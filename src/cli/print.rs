@@ -66,6 +66,17 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             errors.join(" -> ")
         );
     }
+    match &r.display_mesh {
+        Some(d) => println!(
+            "  display   {} elements, {} vertices, each vertex gathered from the solved elements (--display-mesh, --display-edge)",
+            d.elements.len(),
+            d.vertices.len()
+        ),
+        None if r.gathered => println!(
+            "  display   the solved mesh, each vertex gathered from the solved elements"
+        ),
+        None => {}
+    }
     println!(
         "  solve     {} shots, residual unshot {:.2e} of emitted power, {:.2}% of the radiosity shown{}",
         s.shots,

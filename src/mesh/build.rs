@@ -195,6 +195,25 @@ impl<'a> MeshBuilder<'a> {
         &self.settings
     }
 
+    /// The same mesher's mesh at a finer `max_edge` (the display mesh
+    /// the final gather shades), its cost checked first; the blocker table
+    /// is reused.
+    pub fn build_finer(&mut self, max_edge: f32) -> Result<(Mesh, MeshReport)> {
+        let settings = MeshSettings {
+            max_edge,
+            ..self.settings
+        };
+        CostEstimate::new(self.scene, &settings).check(
+            self.device.info.memory_bytes,
+            host_memory_available(),
+            max_edge,
+        )?;
+        let saved = std::mem::replace(&mut self.settings, settings);
+        let built = self.build(&[]);
+        self.settings = saved;
+        built
+    }
+
     /// A mesh with `extra_points` inserted (discontinuity mesher only).
     pub fn build(&mut self, extra_points: &[(u32, Vec3)]) -> Result<(Mesh, MeshReport)> {
         let (scene, settings) = (self.scene, self.settings);
