@@ -32,7 +32,8 @@ use super::hierarchy::ShooterTree;
 use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
-use crate::formfactor::sampling::{grid, Pcg32};
+use crate::formfactor::sampling::{grid, Pcg32, Sampler};
+use crate::geom::tangent_frame;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -62,7 +63,7 @@ impl Default for VertexGather {
             reflector_rays: 16,
             opening: 0.5,
             uniformity: 1.5,
-            source_passes: 1,
+            source_passes: 2,
         }
     }
 }
@@ -99,29 +100,61 @@ pub fn gather_vertices(
     settings: &VertexGather,
 ) -> Vec<[f32; 3]> {
     assert_eq!(radiosity.len(), solved.elements.len());
-    let gather = Gather {
+    let occluders = Occluders::new(scene);
+    // A solved element partly under a box has its light spread over its
+    // whole area, the covered part included: the part that shows is
+    // brighter than that mean by 1 / (exposed share).
+    let exposed = exposed_parts(scene, solved, &occluders);
+    let undiluted: Vec<[f32; 3]> = radiosity
+        .iter()
+        .zip(&exposed)
+        .map(|(b, part)| match part.share {
+            s if s > 0.0 => (Vec3::from(*b) / s).to_array(),
+            _ => [0.0; 3],
+        })
+        .collect();
+    let mut gather = Gather {
         scene,
         tree,
-        sources: sources(scene, solved, tree, radiosity, settings.uniformity),
-        occluders: Occluders::new(scene),
+        sources: sources(
+            scene,
+            solved,
+            tree,
+            &undiluted,
+            &exposed,
+            settings.uniformity,
+        ),
+        occluders,
         roots: (0..tree.nodes.len() as u32)
             .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
             .collect(),
         settings: *settings,
     };
-    // Each pass at the element centres is a Jacobi step with exact form
-    // factors: it corrects the solve's element values (biased where its
-    // form factors are, on coarse elements) by the share rho that comes
-    // back.
-    let mut gather = gather;
+    // Each pass at the elements (the centre of their exposed part) is a
+    // Jacobi step with exact form factors: it corrects the solve's element
+    // values (biased where its form factors are, on coarse elements) by
+    // the share rho that comes back.
     for _ in 0..settings.source_passes {
         let frames: Vec<Frame> = solved
             .elements
             .iter()
-            .map(|e| (e.centre, e.normal, e.patch))
+            .zip(&exposed)
+            .map(|(e, part)| (part.centre, e.normal, e.patch))
             .collect();
-        let corrected = gather.at_points(&frames);
-        gather.sources = sources(scene, solved, tree, &corrected, settings.uniformity);
+        let mut corrected = gather.at_points(&frames);
+        for (b, part) in corrected.iter_mut().zip(&exposed) {
+            if part.share <= 0.0 {
+                *b = [0.0; 3];
+            }
+        }
+        gather.sources = sources(
+            scene,
+            solved,
+            tree,
+            &corrected,
+            &exposed,
+            settings.uniformity,
+        );
     }
     let (points, normals, patches) = vertex_frames(scene, display);
     let frames: Vec<Frame> = (0..points.len())
@@ -196,12 +229,81 @@ impl Gather<'_> {
     }
 }
 
+/// The part of an element that is not enclosed (the floor under a box is).
+#[derive(Debug, Clone, Copy)]
+struct ExposedPart {
+    /// Share of the element's area.
+    share: f32,
+    /// Centre of that part (the element's centre where all or none of it
+    /// is exposed).
+    centre: Vec3,
+}
+
+/// Points per element side, and directions per point, of the exposure test.
+const EXPOSURE_GRID: usize = 4;
+const EXPOSURE_RAYS: usize = 8;
+
+/// Every element's exposed part, from a grid of points on it: a point is
+/// enclosed when every one of a few cosine-distributed rays from it meets
+/// the back of a surface (the inside of a box standing on it); one ray that
+/// escapes or meets a front makes it exposed.
+fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -> Vec<ExposedPart> {
+    let eps = 4.0 * occluders.epsilon();
+    mesh.elements
+        .par_iter()
+        .enumerate()
+        .map(|(k, el)| {
+            let corners: Vec<Vec3> = el
+                .corners()
+                .iter()
+                .map(|&v| mesh.vertices[v as usize])
+                .collect();
+            let sampler = Sampler::new(&corners);
+            let (t, b) = tangent_frame(el.normal);
+            let mut rng = Pcg32::new(0x00e0_05ed, k as u64);
+            let (mut exposed, mut centre) = (0usize, Vec3::ZERO);
+            for i in 0..EXPOSURE_GRID {
+                for j in 0..EXPOSURE_GRID {
+                    let u = (i as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
+                    let w = (j as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
+                    let p = sampler.point(u, w);
+                    let start = p + eps * el.normal;
+                    let sees_out = (0..EXPOSURE_RAYS).any(|_| {
+                        let (r, phi) = (rng.next_f32().sqrt(), 2.0 * PI * rng.next_f32());
+                        let d = r * phi.cos() * t
+                            + r * phi.sin() * b
+                            + (1.0 - r * r).max(0.0).sqrt() * el.normal;
+                        match occluders.first_hit(start, d) {
+                            None => true,
+                            Some((_, patch)) => scene.patches[patch as usize].normal.dot(d) < 0.0,
+                        }
+                    });
+                    if sees_out {
+                        exposed += 1;
+                        centre += p;
+                    }
+                }
+            }
+            let all = EXPOSURE_GRID * EXPOSURE_GRID;
+            ExposedPart {
+                share: exposed as f32 / all as f32,
+                centre: if exposed > 0 && exposed < all {
+                    centre / exposed as f32
+                } else {
+                    el.centre
+                },
+            }
+        })
+        .collect()
+}
+
 /// Per-node sources, built bottom-up from the elements.
 fn sources(
     scene: &Scene,
     mesh: &Mesh,
     tree: &ShooterTree,
     radiosity: &[[f32; 3]],
+    exposed: &[ExposedPart],
     uniformity: f32,
 ) -> Vec<Source> {
     tree.nodes
@@ -211,10 +313,16 @@ fn sources(
             let (mut sum, mut area) = (Vec3::ZERO, 0.0f32);
             let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
             for &e in tree.elements(n as u32) {
-                let el = &mesh.elements[e as usize];
+                // Means over the exposed area: the covered part is dark
+                // and rays to it are blocked anyway.
+                let share = exposed[e as usize].share;
+                if share <= 0.0 {
+                    continue;
+                }
                 let b = Vec3::from(radiosity[e as usize]);
-                sum += b * el.area;
-                area += el.area;
+                let a = mesh.elements[e as usize].area * share;
+                sum += b * a;
+                area += a;
                 let level = b.x + b.y + b.z;
                 lo = lo.min(level);
                 hi = hi.max(level);
@@ -474,5 +582,54 @@ mod tests {
             }
         }
         assert!(under >= 8 && beside >= 4, "{under} under, {beside} beside");
+    }
+
+    #[test]
+    fn the_floor_under_a_box_is_enclosed_and_beside_it_exposed() {
+        // A 2 x 2 floor in four 1 x 1 elements, a box standing over part
+        // of the two at x < 1.
+        let floor = facing(
+            vec![
+                Vec3::new(0.0, 0.0, 0.0),
+                Vec3::new(2.0, 0.0, 0.0),
+                Vec3::new(2.0, 0.0, 2.0),
+                Vec3::new(0.0, 0.0, 2.0),
+            ],
+            Vec3::Y,
+        );
+        let mut polygons = vec![floor];
+        polygons.extend(box_faces(
+            Vec3::new(-0.5, 0.0, -0.5),
+            Vec3::new(0.5, 0.4, 1.5),
+            false,
+            true,
+        ));
+        let refs: Vec<&[Vec3]> = polygons.iter().map(|f| f.as_slice()).collect();
+        let s = scene(&refs);
+        let mesh = uniform(&s, 1.0);
+        let parts = exposed_parts(&s, &mesh, &Occluders::new(&s));
+        for (el, part) in mesh.elements.iter().zip(&parts) {
+            if el.patch != 0 {
+                // The box's own faces look out.
+                assert_eq!(part.share, 1.0, "box face {}", el.centre);
+                continue;
+            }
+            // The box covers x < 0.5 and z < 1.5 of the floor; the grid's
+            // strata split the elements at those lines.
+            let c = el.centre;
+            let expected = match (c.x < 1.0, c.z < 1.0) {
+                (false, _) => 1.0,
+                (true, true) => 0.5,
+                (true, false) => 0.75,
+            };
+            assert_eq!(part.share, expected, "floor element at {c}");
+            if expected < 1.0 {
+                assert!(
+                    part.centre.x > 0.5,
+                    "exposed centre {} should lie beside the box",
+                    part.centre
+                );
+            }
+        }
     }
 }
