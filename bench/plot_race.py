@@ -1,9 +1,14 @@
 #!/usr/bin/env python3
 """Draws bench/race-cornell.png and bench/race-cornell.json: image error
-against wall seconds for the path tracer (Mitsuba 3, warm and cold) and for
-vkrad's element and hierarchical solvers, from the runs of
-bench/pathtracer/compare.py (out/race-cornell-hierarchical.json, which holds
-the path-tracer curve, and out/race-cornell-element.json)."""
+against wall seconds for the path tracer (Mitsuba 3) and for vkrad, from
+the runs of bench/pathtracer/compare.py:
+
+- out/race-cornell.json: the path-tracer curve (a full run);
+- out/race-cornell-final.json: vkrad at its defaults (final gather on a
+  discontinuity display mesh), `compare.py --skip-race --tag=-final`;
+- out/race-cornell-hierarchical.json, out/race-cornell-element.json: vkrad
+  before the final gather (element-averaged vertex values, 2x2 SSAA), both
+  solvers, kept from the run that measured them."""
 import json, os
 import matplotlib
 matplotlib.use("Agg")
@@ -11,13 +16,17 @@ import matplotlib.pyplot as plt
 
 here = os.path.dirname(os.path.abspath(__file__))
 out = os.path.join(here, "pathtracer", "out")
+race = json.load(open(os.path.join(out, "race-cornell.json")))
+final = json.load(open(os.path.join(out, "race-cornell-final.json")))
 hier = json.load(open(os.path.join(out, "race-cornell-hierarchical.json")))
 elem = json.load(open(os.path.join(out, "race-cornell-element.json")))
 fig, ax = plt.subplots(figsize=(7.5, 5), dpi=110)
-pt = hier["pathtracer"]
+pt = race["pathtracer"]
 ax.loglog([p["cold_total_s"] for p in pt], [p["rel_rmse_lit"] for p in pt], "o-", color="black",
           label="path tracer (Mitsuba 3 llvm, whole command)")
-for name, doc, colour in [("vkrad element-by-element", elem, "tab:red"), ("vkrad hierarchical", hier, "tab:blue")]:
+for name, doc, colour in [("vkrad before: element-by-element", elem, "tab:red"),
+                          ("vkrad before: hierarchical", hier, "tab:orange"),
+                          ("vkrad now: hierarchical + final gather", final, "tab:blue")]:
     runs = doc["vkrad"]
     ax.loglog([r["wall_s"] for r in runs], [r["rel_rmse_lit"] for r in runs], "s-", color=colour,
               label=name + " (whole command, --converge 1e-1 .. 1e-3)")
@@ -31,14 +40,16 @@ ax.legend(fontsize=8)
 fig.tight_layout()
 fig.savefig(os.path.join(here, "race-cornell.png"))
 summary = {
-    "reference": hier["reference"],
-    "metric": hier["metric"],
+    "reference": race["reference"],
+    "metric": race["metric"],
     "pathtracer": pt,
-    "pathtracer_seconds_to_3%": hier["pt_cold_s_to_0.03"],
-    "pathtracer_seconds_to_1%": hier["pt_cold_s_to_0.01"],
-    "vkrad_element": elem["vkrad"],
-    "vkrad_hierarchical": hier["vkrad"],
-    "machine": hier["machine"],
+    "pathtracer_seconds_to_3%": race["pt_cold_s_to_0.03"],
+    "pathtracer_seconds_to_1%": race["pt_cold_s_to_0.01"],
+    "vkrad_seconds_to_3%": final["vkrad_s_to_0.03"],
+    "vkrad": final["vkrad"],
+    "vkrad_before_element": elem["vkrad"],
+    "vkrad_before_hierarchical": hier["vkrad"],
+    "machine": race["machine"],
 }
 json.dump(summary, open(os.path.join(here, "race-cornell.json"), "w"), indent=1)
 print("wrote race-cornell.png/.json")
