@@ -376,3 +376,49 @@ fn wireframe_darkens_mesh_edges() {
     assert!(darker > 20, "wireframe changed only {darker} pixels");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The exported mesh is the display mesh the final gather shaded (finer
+/// than the solved one), and `--no-final-gather` exports the solved mesh.
+#[test]
+fn the_export_is_the_gathered_display_mesh() {
+    let dir = temp_dir("display");
+    let vertices = |extra: &[&str]| {
+        let mut args = vec![
+            "simple",
+            "-o",
+            "s.png",
+            "--export",
+            "s.ply",
+            "--size",
+            "32x24",
+            "--hemicube-res",
+            "32",
+            "--max-edge",
+            "1.25",
+            "--validate",
+        ];
+        args.extend_from_slice(extra);
+        let out = vkrad(&args, &dir);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let summary = String::from_utf8_lossy(&out.stdout).to_string();
+        let ply = std::fs::read_to_string(dir.join("s.ply")).unwrap();
+        let count: usize = ply
+            .lines()
+            .find_map(|l| l.strip_prefix("element vertex "))
+            .unwrap()
+            .trim()
+            .parse()
+            .unwrap();
+        (count, summary)
+    };
+    let (solved, plain) = vertices(&["--no-final-gather"]);
+    let (display, gathered) = vertices(&["--display-mesh", "uniform"]);
+    assert!(!plain.contains("display "), "{plain}");
+    assert!(gathered.contains("display "), "{gathered}");
+    // Half the edge: about four times the elements, more than twice the vertices.
+    assert!(
+        display > 2 * solved,
+        "{display} display vertices vs {solved} solved"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
