@@ -130,6 +130,9 @@ pub struct Report {
     pub display_mesh: Option<Mesh>,
     /// Whether the vertex values shown were gathered (`Job::final_gather`).
     pub gathered: bool,
+    /// The radiosity shown at every vertex of the display mesh (or of
+    /// `mesh` when there is none), ambient term included.
+    pub vertex_radiosity: Vec<[f32; 3]>,
     pub max_edge: f32,
     pub mesh_report: MeshReport,
     /// What the mesh was estimated to cost before it was built.
@@ -536,6 +539,7 @@ pub fn run_scene(
         mesh,
         display_mesh,
         gathered: job.final_gather.is_some(),
+        vertex_radiosity: shown,
         max_edge,
         mesh_report,
         estimate: cost,

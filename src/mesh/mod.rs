@@ -7,6 +7,7 @@ use glam::Vec3;
 pub mod build;
 pub mod discontinuity;
 mod sanity;
+pub mod smooth;
 pub mod uniform;
 
 pub use uniform::{default_max_edge, element_count, uniform};

@@ -34,6 +34,7 @@ use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
 use crate::formfactor::sampling::{grid, Pcg32, Sampler};
 use crate::geom::tangent_frame;
+use crate::mesh::smooth::{smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -156,11 +157,21 @@ pub fn gather_vertices(
             settings.uniformity,
         );
     }
-    let (points, normals, patches) = vertex_frames(scene, display);
-    let frames: Vec<Frame> = (0..points.len())
-        .map(|v| (points[v], normals[v], patches[v]))
+    // One gather per smooth group: vertices at one place on patches that
+    // meet below the crease angle show one value.
+    let (points, _, patches) = vertex_frames(scene, display);
+    let groups = smooth_groups(scene, display, CREASE_DEGREES);
+    let frames: Vec<Frame> = groups
+        .members
+        .iter()
+        .map(|&(v, normal)| (points[v as usize], normal, patches[v as usize]))
         .collect();
-    gather.at_points(&frames)
+    let values = gather.at_points(&frames);
+    groups
+        .group
+        .iter()
+        .map(|&g| values.get(g as usize).copied().unwrap_or([0.0; 3]))
+        .collect()
 }
 
 /// Where a value is gathered: point, normal, patch (`u32::MAX`: none).

@@ -18,4 +18,5 @@ mod golden;
 mod hierarchy;
 mod layout;
 mod shaders;
+mod smooth;
 mod visibility;
