@@ -368,6 +368,40 @@ def write_png(path, img, exposure=None):
     return exposure
 
 
+def probe_mask(direct, interior, window=7, change=0.5):
+    """Penumbra and contact probes: interior pixels (with their 3x3
+    neighbourhood interior too) where the direct light changes by more than
+    `change` of its local maximum within `window` pixels, and the pixel's
+    own direct light is neither the local maximum nor zero: the inside of
+    penumbrae and of contact shadows, where a mesh is most likely wrong."""
+    d = direct.mean(axis=2)
+    h, w = d.shape
+    r = window // 2
+    pad = np.pad(d, r, mode="edge")
+    stack = np.stack([pad[i:i + h, j:j + w] for i in range(window) for j in range(window)])
+    hi, lo = stack.max(axis=0), stack.min(axis=0)
+    ipad = np.pad(interior, 1, constant_values=False)
+    inner = np.all(np.stack([ipad[i:i + h, j:j + w] for i in range(3) for j in range(3)]), axis=0)
+    return inner & (hi > 0) & ((hi - lo) > change * hi) & (d > 0.05 * hi) & (d < 0.95 * hi)
+
+
+def box3(img):
+    h, w = img.shape[:2]
+    pad = np.pad(img, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    return sum(pad[i:i + h, j:j + w] for i in range(3) for j in range(3)) / 9.0
+
+
+def probe_errors(x, ref, probes):
+    """Relative error of the 3x3 mean (mean RGB) at every probe: median,
+    90th percentile and worst."""
+    if probes.sum() == 0:
+        return {}
+    xs, rs = box3(x).mean(axis=2)[probes], box3(ref).mean(axis=2)[probes]
+    e = np.abs(xs - rs) / np.maximum(rs, 1e-12)
+    return {"probes": int(probes.sum()), "probe_median": float(np.median(e)),
+            "probe_p90": float(np.percentile(e, 90)), "probe_max": float(e.max())}
+
+
 def rel_rmse(x, ref, mask):
     d = (x - ref)[mask]
     return float(np.sqrt(np.mean(d * d)) / np.mean(ref[mask]))
@@ -476,6 +510,15 @@ def main():
         sees_emitter = emitter_visible_mask(scene)
         interior = interior_mask(scene, size)
         np.savez(masks_path, sees_emitter=sees_emitter, interior=interior)
+    # Direct light only, for the penumbra and contact probes (cached).
+    direct_path = os.path.join(a.out, f"{tag}{sided}-direct-1024.exr")
+    if os.path.exists(direct_path):
+        direct = read_exr(direct_path)
+    else:
+        direct = render_spp(scene, 1024, seed=4242,
+                            integrator=mi.load_dict({"type": "path", "max_depth": 2, "hide_emitters": False}))
+        write_exr(direct_path, direct)
+    probes = probe_mask(direct, interior & ~sees_emitter)
 
     # ---------------- reference ----------------
     ref_spp = 1 << max(1, (a.ref_spp - 1).bit_length())  # power of two, halves too
@@ -532,6 +575,10 @@ def main():
     masks = {"lit": lit, "interior": lit & interior}
     log(f"masks: lit {lit.sum()} px ({lit.mean() * 100:.1f}%), interior {masks['interior'].sum()} px, "
         f"emitter-visible {sees_emitter.sum()} px")
+    write_png(os.path.join(a.out, f"{tag}-probes.png"),
+              np.stack([probes, masks["interior"] & ~probes, np.zeros_like(probes)], axis=2).astype(np.float64),
+              exposure=1.0)
+    log(f"probes: {probes.sum()} penumbra and contact pixels (direct light changes by half within 3 px)")
     write_png(os.path.join(a.out, f"{tag}-mask.png"),
               np.stack([lit, masks["interior"], sees_emitter], axis=2).astype(np.float64), exposure=1.0)
 
@@ -598,6 +645,7 @@ def main():
             p = {"spp": n, "warm_s": warm_s, "cpu_s": time.process_time() - c,
                  "loadavg1_before": load0, "loadavg1_after": os.getloadavg()[0]}
             p.update(errors(x, ref, masks))
+            p.update(probe_errors(x, ref, probes))
             corrected(p)
             pt.append(p)
             log(f"  pt {n:5d} spp: {warm_s:7.2f}s (cpu {p['cpu_s']:7.2f}s, load {load0:.1f})  relRMSE lit {p['rel_rmse_lit'] * 100:6.2f}% "
@@ -653,6 +701,7 @@ def main():
             except (OSError, KeyError, ValueError):
                 pass
             p.update(errors(x, ref, masks))
+            p.update(probe_errors(x, ref, probes))
             corrected(p)
             # orientation check: a mirrored image would match far worse
             p["rel_rmse_lit_if_mirrored"] = rel_rmse(x[:, ::-1], ref, masks["lit"])
@@ -662,7 +711,9 @@ def main():
                         f"vkrad --converge {conv} {a.vkrad_args}")
             log(f"  vkrad --converge {conv}: wall {wall:7.2f}s (cpu {cpu:7.2f}s, load {load0:.1f}), {p.get('shots')} shots  "
                 f"relRMSE lit {p['rel_rmse_lit'] * 100:6.2f}% (corr. {p['rel_rmse_lit_corrected'] * 100:6.2f}%)  interior {p['rel_rmse_interior'] * 100:6.2f}%  "
-                f"bias {p['bias_lit'] * 100:+.2f}%  (mirrored: {p['rel_rmse_lit_if_mirrored'] * 100:.1f}%)")
+                f"bias {p['bias_lit'] * 100:+.2f}%  (mirrored: {p['rel_rmse_lit_if_mirrored'] * 100:.1f}%)  "
+                f"probes {p.get('probes', 0)}: median {p.get('probe_median', 0) * 100:.1f}% "
+                f"p90 {p.get('probe_p90', 0) * 100:.1f}% max {p.get('probe_max', 0) * 100:.1f}%")
 
     # ---------------- summary ----------------
     summary = {
