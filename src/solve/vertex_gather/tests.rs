@@ -1,0 +1,199 @@
+//! Tests of the final gather: exact cases, light leaks, exposure.
+use super::*;
+use crate::formfactor::analytic::point_to_polygon;
+use crate::mesh::testutil::scene;
+use crate::mesh::uniform;
+use crate::scene::Material;
+
+/// `corners` ordered so that the polygon faces `towards`.
+fn facing(mut corners: Vec<Vec3>, towards: Vec3) -> Vec<Vec3> {
+    let c0 = corners[0];
+    let normal = (corners[1] - c0).cross(corners[2] - c0);
+    let centroid = corners.iter().copied().sum::<Vec3>() / corners.len() as f32;
+    if normal.dot(towards - centroid) < 0.0 {
+        corners.reverse();
+    }
+    corners
+}
+
+/// The six faces of the axis box `lo..hi`, facing `towards` (inside or out).
+fn box_faces(lo: Vec3, hi: Vec3, inward: bool, skip_bottom: bool) -> Vec<Vec<Vec3>> {
+    let c = 0.5 * (lo + hi);
+    let mut faces = Vec::new();
+    for axis in 0..3 {
+        for side in [lo[axis], hi[axis]] {
+            if skip_bottom && axis == 1 && side == lo[axis] {
+                continue;
+            }
+            let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corner = |u: f32, w: f32| {
+                let mut p = Vec3::ZERO;
+                p[axis] = side;
+                p[a] = u;
+                p[b] = w;
+                p
+            };
+            let quad = vec![
+                corner(lo[a], lo[b]),
+                corner(hi[a], lo[b]),
+                corner(hi[a], hi[b]),
+                corner(lo[a], hi[b]),
+            ];
+            let mut outside = c;
+            outside[axis] = side + (side - c[axis]);
+            faces.push(facing(quad, if inward { c } else { outside }));
+        }
+    }
+    faces
+}
+
+fn material(reflectance: f32, emitted: f32) -> Material {
+    Material {
+        name: String::new(),
+        reflectance: Vec3::splat(reflectance),
+        emission: Vec3::splat(emitted / PI),
+    }
+}
+
+#[test]
+fn a_closed_glowing_box_gathers_its_exact_radiosity() {
+    // Every wall emits E = 1 and reflects 0.5: B = E / (1 - rho) = 2
+    // everywhere, and the form factors from any point sum to 1.
+    let faces = box_faces(Vec3::ZERO, Vec3::new(1.0, 2.0, 1.5), true, false);
+    let refs: Vec<&[Vec3]> = faces.iter().map(|f| f.as_slice()).collect();
+    let mut s = scene(&refs);
+    s.materials = vec![material(0.5, 1.0)];
+    let mesh = uniform(&s, 0.3);
+    let tree = ShooterTree::new(&s, &mesh);
+    let b = vec![[2.0f32; 3]; mesh.elements.len()];
+    let got = gather_vertices(&s, &mesh, &tree, &b, &mesh, &VertexGather::default());
+    for (v, g) in got.iter().enumerate() {
+        assert!(
+            (g[0] - 2.0).abs() < 2e-3,
+            "vertex {v} at {}: {g:?}",
+            mesh.vertices[v]
+        );
+    }
+}
+
+#[test]
+fn no_light_leaks_under_a_box_standing_on_the_floor() {
+    // A 4 x 4 floor, a square light 2 above it, a box (no bottom face)
+    // standing on the floor beside the light's footprint.
+    let floor = facing(
+        vec![
+            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(-2.0, 0.0, 2.0),
+        ],
+        Vec3::Y,
+    );
+    let light = facing(
+        vec![
+            Vec3::new(-0.5, 2.0, -0.5),
+            Vec3::new(0.5, 2.0, -0.5),
+            Vec3::new(0.5, 2.0, 0.5),
+            Vec3::new(-0.5, 2.0, 0.5),
+        ],
+        Vec3::ZERO,
+    );
+    let (lo, hi) = (Vec3::new(0.6, 0.0, -0.3), Vec3::new(1.2, 0.3, 0.3));
+    let mut polygons = vec![floor, light.clone()];
+    polygons.extend(box_faces(lo, hi, false, true));
+    let refs: Vec<&[Vec3]> = polygons.iter().map(|f| f.as_slice()).collect();
+    let mut s = scene(&refs);
+    s.materials = vec![material(0.5, 0.0), material(0.0, 1.0)];
+    s.patches[1].material = 1;
+    let mesh = uniform(&s, 0.1);
+    let tree = ShooterTree::new(&s, &mesh);
+    // Direct light only: the light at B = 1, everything else dark, and
+    // no pass at the element centres (which would add a bounce).
+    let b: Vec<[f32; 3]> = mesh
+        .elements
+        .iter()
+        .map(|e| [if e.patch == 1 { 1.0 } else { 0.0 }; 3])
+        .collect();
+    let settings = VertexGather {
+        source_passes: 0,
+        ..VertexGather::default()
+    };
+    let got = gather_vertices(&s, &mesh, &tree, &b, &mesh, &settings);
+    let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
+    let (mut under, mut beside) = (0, 0);
+    for (v, g) in got.iter().enumerate() {
+        let p = mesh.vertices[v];
+        let on_floor = p.y == 0.0
+            && mesh
+                .elements
+                .iter()
+                .any(|e| e.patch == 0 && e.corners().contains(&(v as u32)));
+        if !on_floor {
+            continue;
+        }
+        let inside_z = p.z.abs() < 0.28;
+        if inside_z && p.x > 0.62 && p.x < 1.18 {
+            under += 1;
+            assert_eq!(g[0], 0.0, "light leaks under the box at {p}");
+        } else if inside_z && p.x > 0.45 && p.x < 0.6 {
+            // On the light's side of the box: nothing in the way.
+            beside += 1;
+            let exact = 0.5 * point_to_polygon(p.as_dvec3(), DVec3::Y, &light) as f32;
+            assert!(
+                (g[0] - exact).abs() <= 1e-3 * exact,
+                "{p}: {} vs {exact}",
+                g[0]
+            );
+        }
+    }
+    assert!(under >= 8 && beside >= 4, "{under} under, {beside} beside");
+}
+
+#[test]
+fn the_floor_under_a_box_is_enclosed_and_beside_it_exposed() {
+    // A 2 x 2 floor in four 1 x 1 elements, a box standing over part
+    // of the two at x < 1.
+    let floor = facing(
+        vec![
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(0.0, 0.0, 2.0),
+        ],
+        Vec3::Y,
+    );
+    let mut polygons = vec![floor];
+    polygons.extend(box_faces(
+        Vec3::new(-0.5, 0.0, -0.5),
+        Vec3::new(0.5, 0.4, 1.5),
+        false,
+        true,
+    ));
+    let refs: Vec<&[Vec3]> = polygons.iter().map(|f| f.as_slice()).collect();
+    let s = scene(&refs);
+    let mesh = uniform(&s, 1.0);
+    let parts = exposed_parts(&s, &mesh, &Occluders::new(&s));
+    for (el, part) in mesh.elements.iter().zip(&parts) {
+        if el.patch != 0 {
+            // The box's own faces look out.
+            assert_eq!(part.share, 1.0, "box face {}", el.centre);
+            continue;
+        }
+        // The box covers x < 0.5 and z < 1.5 of the floor; the grid's
+        // strata split the elements at those lines.
+        let c = el.centre;
+        let expected = match (c.x < 1.0, c.z < 1.0) {
+            (false, _) => 1.0,
+            (true, true) => 0.5,
+            (true, false) => 0.75,
+        };
+        assert_eq!(part.share, expected, "floor element at {c}");
+        if expected < 1.0 {
+            assert!(
+                part.centre.x > 0.5,
+                "exposed centre {} should lie beside the box",
+                part.centre
+            );
+        }
+    }
+}
