@@ -28,6 +28,7 @@ use std::f32::consts::PI;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
+use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
 use super::hierarchy::ShooterTree;
 use crate::formfactor::analytic::point_to_polygon;
@@ -81,6 +82,9 @@ struct Source {
     patch: u32,
     /// Whether its elements' radiosity is within the uniformity factor.
     even: bool,
+    /// Range of its elements' radiosity levels (sum of rgb, exposed ones).
+    lo: f32,
+    hi: f32,
     emits: bool,
 }
 
@@ -114,21 +118,23 @@ pub fn gather_vertices(
             _ => [0.0; 3],
         })
         .collect();
+    let first = sources(
+        scene,
+        solved,
+        tree,
+        &undiluted,
+        &exposed,
+        settings.uniformity,
+    );
+    let roots: Vec<u32> = (0..tree.nodes.len() as u32)
+        .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
+        .collect();
     let mut gather = Gather {
         scene,
         tree,
-        sources: sources(
-            scene,
-            solved,
-            tree,
-            &undiluted,
-            &exposed,
-            settings.uniformity,
-        ),
+        clusters: Clusters::new(tree, &roots, &first),
+        sources: first,
         occluders,
-        roots: (0..tree.nodes.len() as u32)
-            .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
-            .collect(),
         settings: *settings,
     };
     // Each pass at the elements (the centre of their exposed part) is a
@@ -156,6 +162,7 @@ pub fn gather_vertices(
             &exposed,
             settings.uniformity,
         );
+        gather.clusters.relight(&gather.sources);
     }
     // One gather per smooth group: vertices at one place on patches that
     // meet below the crease angle show one value.
@@ -183,7 +190,7 @@ struct Gather<'a> {
     tree: &'a ShooterTree,
     sources: Vec<Source>,
     occluders: Occluders,
-    roots: Vec<u32>,
+    clusters: Clusters,
     settings: VertexGather,
 }
 
@@ -213,7 +220,28 @@ impl Gather<'_> {
     fn at_point(&self, at: &Receiver, rng: &mut Pcg32) -> Vec3 {
         let settings = &self.settings;
         let mut gathered = Vec3::ZERO;
-        let mut stack: Vec<u32> = self.roots.clone();
+        // Clusters of patches first: far, even ones whole, the rest down
+        // to their patches' root nodes.
+        let mut stack: Vec<u32> = Vec::new();
+        let mut clusters: Vec<u32> = if self.clusters.nodes.is_empty() {
+            Vec::new()
+        } else {
+            vec![0]
+        };
+        while let Some(c) = clusters.pop() {
+            let cluster = &self.clusters.nodes[c as usize];
+            if cluster.unseen(at.p, at.n) {
+                continue;
+            }
+            if cluster.far_and_even(at.p, settings.uniformity) {
+                gathered += cluster.gather((at.p, at.n, at.patch), &self.sources, &self.occluders);
+                continue;
+            }
+            match cluster.children {
+                Some(children) => clusters.extend_from_slice(&children),
+                None => stack.extend_from_slice(&cluster.roots),
+            }
+        }
         while let Some(n) = stack.pop() {
             let node = &self.tree.nodes[n as usize];
             if node.patch == at.patch {
@@ -290,6 +318,8 @@ fn sources(
                 normal: node.normal,
                 patch: node.patch,
                 even: hi <= uniformity * lo || hi <= 0.0,
+                lo,
+                hi,
                 emits: scene.patch_material(node.patch).is_emitter(),
             }
         })
@@ -375,6 +405,7 @@ impl Source {
     }
 }
 
+mod clusters;
 mod exposure;
 #[cfg(test)]
 mod tests;
