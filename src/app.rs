@@ -415,7 +415,13 @@ pub fn run_scene(
 
     let t = Instant::now();
     let mut on_progress = on_progress;
-    let solution = solve(&device, &scene, &mesh, &job.solve, &mut on_progress)?;
+    // The final gather's Jacobi passes finish the light's bounces: the
+    // solve may stop as much earlier (its stop rule counts them).
+    let solve_settings = SolveSettings {
+        gather_passes: job.final_gather.map_or(0, |g| g.source_passes),
+        ..job.solve
+    };
+    let solution = solve(&device, &scene, &mesh, &solve_settings, &mut on_progress)?;
     wall.push(("solve", t.elapsed().as_secs_f64()));
     let adaptive = AdaptiveSettings {
         tolerance: job.tolerance,
@@ -440,7 +446,7 @@ pub fn run_scene(
         },
         job.adaptive,
         &adaptive,
-        &job.solve,
+        &solve_settings,
         job.check_mesh,
         &mut on_progress,
     )?;

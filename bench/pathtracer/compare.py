@@ -444,7 +444,7 @@ def main():
     ap.add_argument("--size", default="256x256")
     ap.add_argument("--ref-spp", type=int, default=65536, help="reference spp (two independent halves)")
     ap.add_argument("--max-spp", type=int, default=16384, help="largest spp of the race (powers of two)")
-    ap.add_argument("--converge", default="1e-1,3e-2,1e-2,3e-3,1e-3", help="vkrad --converge values")
+    ap.add_argument("--converge", default="1e-1,3e-2,1e-2,3e-3,1e-3", help="vkrad --converge values ('default': vkrad's own stop rule)")
     ap.add_argument("--vkrad-args", default="", help="extra arguments for vkrad (one string)")
     ap.add_argument("--skip-vkrad", action="store_true")
     ap.add_argument("--vkrad-timeout", type=float, default=None, help="seconds per vkrad run (skip the rest)")
@@ -670,7 +670,9 @@ def main():
             conv = conv.strip()
             out = os.path.join(a.out, f"{name}{a.tag}-vkrad-{conv}.exr")
             report = os.path.join(a.out, f"{name}{a.tag}-vkrad-{conv}.json")
-            cmd = [a.vkrad, obj_path, "-o", out, "--size", f"{w}x{h}", "--converge", conv,
+            # "default": vkrad's own stop rule (no --converge).
+            stop = [] if conv == "default" else ["--converge", conv]
+            cmd = [a.vkrad, obj_path, "-o", out, "--size", f"{w}x{h}", *stop,
                    "--report", report, "-q"]
             cmd += [f"--eye={','.join(map(str, cam['eye']))}",
                     f"--look-at={','.join(map(str, cam['look_at']))}",
@@ -691,7 +693,7 @@ def main():
                 log(f"  vkrad --converge {conv} failed ({r.returncode}): {r.stderr.strip()[-500:]}")
                 continue
             x = read_exr(out)
-            p = {"converge": float(conv), "wall_s": wall, "cpu_s": cpu, "loadavg1_before": load0,
+            p = {"converge": None if conv == "default" else float(conv), "wall_s": wall, "cpu_s": cpu, "loadavg1_before": load0,
                  "loadavg1_after": os.getloadavg()[0], "cmd": " ".join(cmd)}
             try:
                 with open(report) as fh:
@@ -792,7 +794,7 @@ def chart(s, path):
             ax.loglog([p[tk] for p in vk], [p["rel_rmse_lit"] for p in vk], "s-", color="C3",
                       label="vkrad, whole command; labels = --converge")
             for i, p in enumerate(vk):
-                ax.annotate(f"{p['converge']:g}", (p[tk], p["rel_rmse_lit"]), fontsize=7,
+                ax.annotate("default" if p['converge'] is None else f"{p['converge']:g}", (p[tk], p["rel_rmse_lit"]), fontsize=7,
                             xytext=(-4, 7 if i % 2 else -11), textcoords="offset points", color="C3")
         x0 = ax.get_xlim()[0]
         ax.axhline(0.03, color="k", ls="--", lw=0.8)

@@ -430,6 +430,7 @@ fn settings(method: FormFactorMethod, hemicube_res: u32) -> SolveSettings {
         converge: CONVERGE,
         unshot_share: None,
         max_shots: SolveSettings::default().max_shots,
+        gather_passes: 0,
         // The bench compares form-factor methods shot for shot.
         shooting: Shooting::Element,
     }
@@ -501,6 +502,7 @@ fn scene_reference(
                 converge: REFERENCE_ANALYTIC_CONVERGE,
                 unshot_share: None,
                 max_shots: 1_000_000,
+                gather_passes: 0,
                 shooting: Shooting::Element,
             },
             format!("analytic (unoccluded), converge {REFERENCE_ANALYTIC_CONVERGE:e}"),
@@ -519,6 +521,7 @@ fn scene_reference(
                 converge: REFERENCE_HEMICUBE_CONVERGE,
                 unshot_share: None,
                 max_shots: 1_000_000,
+                gather_passes: 0,
                 shooting: Shooting::Element,
             },
             format!(

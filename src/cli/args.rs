@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
+use vkrad::solve::vertex_gather::VertexGather;
 
 use vkrad::gpu::DeviceOptions;
 use vkrad::mesh::build::Mesher;
@@ -230,6 +231,11 @@ pub(crate) struct RenderArgs {
     /// at corners, contacts and shadow edges.
     #[arg(long)]
     pub(crate) no_final_gather: bool,
+    /// Jacobi passes of the final gather at the element centres before the
+    /// vertices: each corrects the solved element values with exact form
+    /// factors (their error shrinks by about the mean reflectance per pass).
+    #[arg(long, default_value_t = VertexGather::default().source_passes, value_name = "N")]
+    pub(crate) gather_passes: usize,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
     /// of --max-edge; at most --max-edge).

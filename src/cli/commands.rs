@@ -54,7 +54,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.dm_res = args.mesh.dm_res;
     job.wireframe = args.wireframe;
     job.ambient = !args.no_ambient;
-    job.final_gather = (!args.no_final_gather).then(VertexGather::default);
+    job.final_gather = (!args.no_final_gather).then(|| VertexGather {
+        source_passes: args.gather_passes,
+        ..VertexGather::default()
+    });
     job.display_edge = args.display_edge;
     job.display_mesher = Some(args.display_mesh.mesher(true));
     job.adaptive = args.adaptive;
@@ -68,6 +71,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         converge: args.converge.unwrap_or(1e-6),
         unshot_share: args.converge.is_none().then_some(args.stop_error),
         max_shots: args.max_shots,
+        // Set by the job from its final gather.
+        gather_passes: 0,
         shooting: args.shooting(),
     };
     let fraction = |f: f64| f > 0.0 && f < 1.0;

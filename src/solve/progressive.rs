@@ -29,6 +29,11 @@ pub struct SolveSettings {
     pub unshot_share: Option<f64>,
     /// Stop after this many shots at the latest.
     pub max_shots: usize,
+    /// Jacobi passes that will follow the solve (the final gather's): each
+    /// removes all but about the return ratio r of the error left, so the
+    /// share shown after them is the unshot share times r^passes, and the
+    /// solve may stop that much earlier.
+    pub gather_passes: usize,
     /// Who shoots: regions of the shooting hierarchy, or single elements.
     pub shooting: Shooting,
 }
@@ -54,6 +59,7 @@ impl Default for SolveSettings {
             converge: 1e-3,
             unshot_share: None,
             max_shots: 100_000,
+            gather_passes: 0,
             shooting: Shooting::Hierarchical(HierarchyRule::default()),
         }
     }
@@ -87,6 +93,13 @@ pub fn unshot_share(unshot_power: f64, reflected_power: f64, return_ratio: f64) 
     }
     let r = return_ratio.clamp(0.0, 0.999);
     unshot_power * r / ((1.0 - r) * reflected_power)
+}
+
+/// [`unshot_share`] after `passes` Jacobi passes of the final gather: each
+/// pass is one more bounce of all the light with exact form factors, so
+/// what is missing shrinks by the return ratio `r` per pass.
+pub fn share_after_passes(share: f64, return_ratio: f64, passes: usize) -> f64 {
+    share * return_ratio.clamp(0.0, 0.999).powi(passes.min(64) as i32)
 }
 
 /// Solves the scene by progressive refinement until the residual falls
@@ -195,7 +208,12 @@ pub fn solve(
         shots += 1;
         reflected_power += (unshot_power - before + shot_power).max(0.0);
         shot_total += shot_power;
-        share = unshot_share(unshot_power, reflected_power, reflected_power / shot_total);
+        let r = reflected_power / shot_total;
+        share = share_after_passes(
+            unshot_share(unshot_power, reflected_power, r),
+            r,
+            settings.gather_passes,
+        );
         let residual = unshot_power / emitted_power;
         residual_history.push(residual);
         if !on_progress(&Progress {

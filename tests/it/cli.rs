@@ -242,13 +242,17 @@ fn ctrl_c_stops_cleanly_and_writes_the_partial_result() {
             "32x32",
             "--report",
             "run.json",
+            // A solve far longer than the wait (the default stops early,
+            // the final gather's passes finishing the light).
+            "--converge",
+            "1e-6",
         ])
         .current_dir(&dir)
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // Long enough to be solving (the full solve takes far longer).
+    // Long enough to be solving.
     std::thread::sleep(std::time::Duration::from_secs(3));
     let status = Command::new("kill")
         .args(["-INT", &child.id().to_string()])

@@ -65,7 +65,7 @@ impl Default for VertexGather {
             reflector_rays: 16,
             opening: 0.5,
             uniformity: 1.5,
-            source_passes: 2,
+            source_passes: 6,
         }
     }
 }
