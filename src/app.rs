@@ -50,7 +50,8 @@ pub struct Job {
     /// solver's own (`None`).
     pub final_gather: Option<VertexGather>,
     /// With the final gather: the maximum element edge of the display mesh
-    /// whose vertices are gathered and drawn; `None`: half the solve's.
+    /// whose vertices are gathered and drawn (at most the solve's); `None`:
+    /// half the scene's default edge.
     pub display_edge: Option<f32>,
     /// The display mesh's mesher; `None`: the solve's. The default is the
     /// discontinuity mesher: shadow and contact boundaries become mesh
@@ -288,9 +289,12 @@ fn display_mesh(
     warnings: &mut Vec<String>,
 ) -> Result<Option<Mesh>> {
     let solved = *builder.settings();
+    // Half the scene's default edge: finer than a default solve, and no
+    // finer than a solve the user made finer (its cost grows with the
+    // display vertices).
     let edge = job
         .display_edge
-        .unwrap_or(0.5 * solved.max_edge)
+        .unwrap_or(0.5 * mesh::default_max_edge(scene))
         .min(solved.max_edge);
     let mut mesher = job.display_mesher.unwrap_or(solved.mesher);
     if mesher != Mesher::Uniform

@@ -238,7 +238,7 @@ pub(crate) struct RenderArgs {
     pub(crate) gather_passes: usize,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
-    /// of --max-edge; at most --max-edge).
+    /// the default --max-edge; at most --max-edge).
     #[arg(long, value_name = "LENGTH")]
     pub(crate) display_edge: Option<f32>,
     /// Mesher of the display mesh: discontinuity puts shadow and contact
