@@ -10,6 +10,7 @@ mod sanity;
 pub mod smooth;
 pub mod uniform;
 
+pub use sanity::{coplanar_t_junctions, distinct_t_junctions, TJunction};
 pub use uniform::{default_max_edge, element_count, uniform};
 
 /// One element: a triangle or a convex planar quad, counter-clockwise seen

@@ -10,6 +10,9 @@ use crate::error::Error;
 use crate::geom::newell;
 use crate::scene::Scene;
 
+mod coplanar;
+pub use coplanar::{coplanar_t_junctions, distinct_t_junctions, TJunction};
+
 /// Relative tolerance (to the patch size) under which two vertices of one
 /// patch count as the same point.
 const DUPLICATE_TOL: f64 = 1e-6;
@@ -471,6 +474,17 @@ pub(crate) fn shared_edges(scene: &Scene) -> Vec<SharedEdge> {
 }
 
 impl Mesh {
+    /// No same-plane T-junctions anywhere ([`coplanar_t_junctions`]): no
+    /// vertex lies strictly inside an edge of an element in its plane, on
+    /// its own patch or another. Expects a mesh whose elements' corners are
+    /// vertices (others are skipped). About linear in the mesh size.
+    pub fn check_coplanar(&self, scene: &Scene) -> crate::Result<()> {
+        match coplanar::describe(self, &coplanar_t_junctions(self, scene)) {
+            None => Ok(()),
+            Some(what) => Err(Error::Mesh(what)),
+        }
+    }
+
     /// [`Mesh::sanity_check`] plus [`Mesh::check_cross_patch`]: for meshers
     /// that promise a watertight mesh across patches (the discontinuity
     /// mesher; the uniform mesher splits neighbours independently).

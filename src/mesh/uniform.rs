@@ -57,6 +57,14 @@ pub fn default_max_edge(scene: &Scene) -> f32 {
 /// # Panics
 /// If `max_edge` is not positive (or is NaN).
 pub fn uniform(scene: &Scene, max_edge: f32) -> Mesh {
+    quadtree(scene, max_edge)
+}
+
+/// Every patch's quadtree, [`element_count`] elements.
+///
+/// # Panics
+/// If `max_edge` is not positive (or is NaN).
+pub(crate) fn quadtree(scene: &Scene, max_edge: f32) -> Mesh {
     assert!(
         max_edge > 0.0,
         "uniform meshing needs a positive max_edge, got {max_edge}"
