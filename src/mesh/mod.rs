@@ -6,10 +6,12 @@ use glam::Vec3;
 
 pub mod build;
 pub mod discontinuity;
+mod junction;
 mod sanity;
 pub mod smooth;
 pub mod uniform;
 
+pub use junction::remove_t_junctions;
 pub use sanity::{coplanar_t_junctions, distinct_t_junctions, TJunction};
 pub use uniform::{default_max_edge, element_count, uniform};
 

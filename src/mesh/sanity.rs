@@ -827,8 +827,8 @@ mod tests {
         uniform(&s, 1.0)
             .sanity_check_watertight(&s)
             .expect("same level");
-        // Patch 1 (1 x 3) split at thirds of 0.75: its vertex (1, 0.75) lies
-        // inside patch 0's element edge (1, 0)-(1, 1).
+        // The quadtree of patch 1 (1 x 3) splits it at quarters: its vertex
+        // (1, 0.75) lies inside patch 0's element edge (1, 0)-(1, 1).
         let b3 = [
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(2.0, 0.0, 0.0),
@@ -836,13 +836,17 @@ mod tests {
             Vec3::new(1.0, 3.0, 0.0),
         ];
         let s2 = scene(&[&a, &b3]);
-        let mesh = uniform(&s2, 1.0);
+        let mesh = crate::mesh::uniform::quadtree(&s2, 1.0);
         mesh.sanity_check(&s2).expect("sane per patch");
         let err = mesh.check_cross_patch(&s2).expect_err("T-junction");
         assert!(
             err.to_string().contains("T-junction between patches"),
             "{err}"
         );
+        // The uniform mesher splits both patches at each other's vertices.
+        uniform(&s2, 1.0)
+            .sanity_check_watertight(&s2)
+            .expect("no T-junction left");
         // Patches that only touch at a corner share nothing.
         let c = [
             Vec3::new(1.0, 1.0, 0.0),

@@ -17,6 +17,7 @@ mod fuzz_loader;
 mod golden;
 mod hierarchy;
 mod layout;
+mod seams;
 mod shaders;
 mod smooth;
 mod visibility;

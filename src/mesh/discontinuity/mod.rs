@@ -19,7 +19,10 @@
 //! vertex) and triangulated with spade's constrained Delaunay triangulation.
 //! Optional refinement: boundary edges are subdivided before the points are
 //! exchanged between neighbours, interior edges by conforming longest-edge
-//! bisection, so the mesh stays free of T-junctions across patches.
+//! bisection, so the mesh stays free of T-junctions across patches. Last,
+//! coplanar patches that the shared edges do not pair (one overlapping
+//! another, as the vise's slide rail and jaw bottoms do) get each other's
+//! vertices on their element edges (`mesh::remove_t_junctions`).
 
 // `!(x > 0.0)` is used on purpose throughout: it also rejects NaN.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -29,7 +32,7 @@ use std::time::{Duration, Instant};
 use glam::DVec2;
 
 use super::sanity::shared_edges;
-use super::Mesh;
+use super::{remove_t_junctions, Mesh};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
 
@@ -106,13 +109,18 @@ pub struct DiscontinuityStats {
     pub sliver_flips: usize,
     /// Patches where refinement hit `max_triangles_per_patch`.
     pub subdivision_capped: usize,
+    /// Vertices added last where a vertex lay inside an element edge of a
+    /// coplanar patch the shared-edge clustering does not pair with it
+    /// (patches that overlap, or touch without a common edge).
+    pub coplanar_points: usize,
     pub vertices: usize,
     pub triangles: usize,
     /// Projection and clipping (including the oracle's time).
     pub projection_time: Duration,
     /// Snapping and intersecting (the arrangements) and shared-edge exchange.
     pub arrangement_time: Duration,
-    /// Constrained Delaunay triangulation and refinement.
+    /// Constrained Delaunay triangulation and refinement (and the splits
+    /// counted in `coplanar_points`).
     pub cdt_time: Duration,
 }
 
@@ -258,6 +266,9 @@ pub fn discontinuity_mesh(
         stats.cdt_time += start.elapsed();
         mesh.patch_elements.push(first..mesh.elements.len() as u32);
     }
+    let start = Instant::now();
+    stats.coplanar_points = remove_t_junctions(&mut mesh, scene);
+    stats.cdt_time += start.elapsed();
     stats.vertices = mesh.vertices.len();
     stats.triangles = mesh.triangle_count();
     Ok((mesh, stats))
