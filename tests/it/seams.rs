@@ -10,6 +10,9 @@
 //!   the line are interpolated from the same points. Checked here from the
 //!   scene's polygons, apart from the check above.
 //!
+//! And the image: the copies of a point on coplanar patches of one material
+//! show one value (`coplanar_twins_show_one_value`).
+//!
 //! The discontinuity meshes use the CPU blocker oracle (no device);
 //! `discontinuity::gpu_oracle_meshes_are_watertight` runs `check_mesh`,
 //! which includes the same-plane check, on the GPU oracle's. `rfield`
@@ -19,10 +22,14 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
+use crate::common;
+
 use glam::DVec3;
+use vkrad::app::{run, Job};
 use vkrad::mesh::discontinuity::{cpu_blockers, discontinuity_mesh, DiscontinuityOptions};
 use vkrad::mesh::{coplanar_t_junctions, default_max_edge, uniform, Mesh};
 use vkrad::scene::{load_builtin, Scene};
+use vkrad::solve::SolveSettings;
 
 type Cell = (i64, i64, i64);
 
@@ -213,5 +220,84 @@ fn no_same_plane_t_junction_and_no_seam_on_every_builtin_scene_discontinuity() {
             }
             assert_no_seam(&what, &mesh, &scene);
         }
+    }
+}
+
+/// Pairs of vertices of different coplanar patches of one material at one
+/// point (within 1e-5 of the smaller patch's size).
+fn twin_pairs(mesh: &Mesh, scene: &Scene) -> Vec<(usize, usize)> {
+    let sizes: Vec<f64> = scene.patches.iter().map(|p| size(&p.vertices)).collect();
+    let mut owner = vec![u32::MAX; mesh.vertices.len()];
+    for el in &mesh.elements {
+        for &c in el.corners() {
+            owner[c as usize] = el.patch;
+        }
+    }
+    let cell = 2e-5 * sizes.iter().copied().fold(0.0, f64::max);
+    let mut cells: HashMap<Cell, Vec<usize>> = HashMap::new();
+    for (v, &o) in owner.iter().enumerate() {
+        if o != u32::MAX {
+            cells
+                .entry(key(mesh.vertices[v].as_dvec3(), cell))
+                .or_default()
+                .push(v);
+        }
+    }
+    let mut pairs = Vec::new();
+    for (v, &p) in owner.iter().enumerate() {
+        if p == u32::MAX {
+            continue;
+        }
+        let x = mesh.vertices[v].as_dvec3();
+        let k = key(x, cell);
+        for d in 0..27 {
+            let c = (k.0 + d % 3 - 1, k.1 + d / 3 % 3 - 1, k.2 + d / 9 - 1);
+            for &w in cells.get(&c).into_iter().flatten() {
+                let q = owner[w];
+                let (pp, qp) = (&scene.patches[p as usize], &scene.patches[q as usize]);
+                let tol = 1e-5 * sizes[p as usize].min(sizes[q as usize]);
+                if w > v
+                    && q != p
+                    && pp.material == qp.material
+                    && pp.normal.dot(qp.normal) >= 1.0 - 1e-6
+                    && mesh.vertices[w].as_dvec3().distance(x) <= tol
+                {
+                    pairs.push((v, w));
+                }
+            }
+        }
+    }
+    pairs
+}
+
+#[test]
+fn coplanar_twins_show_one_value() {
+    // The letter R is built of coplanar pieces; its display mesh (the
+    // discontinuity mesher's, gathered) has hundreds of such points.
+    let device = common::device();
+    let out_dir = std::env::temp_dir().join(format!("vkrad-seams-{}", std::process::id()));
+    std::fs::create_dir_all(&out_dir).unwrap();
+    let mut job = Job::new("r");
+    job.output = Some(out_dir.join("r.png"));
+    job.size = (64, 64);
+    job.solve = SolveSettings {
+        hemicube_res: 96,
+        converge: 1e-2,
+        max_shots: 20_000,
+        ..Default::default()
+    };
+    let report = run(&job, Some(device.clone()), |_| true).unwrap();
+    common::assert_validation_clean(&device);
+    std::fs::remove_dir_all(&out_dir).ok();
+    let shown = report.display_mesh.as_ref().unwrap_or(&report.mesh);
+    assert_eq!(report.vertex_radiosity.len(), shown.vertices.len());
+    let pairs = twin_pairs(shown, &report.scene);
+    assert!(pairs.len() > 100, "{} pairs", pairs.len());
+    for (a, b) in pairs {
+        assert_eq!(
+            report.vertex_radiosity[a], report.vertex_radiosity[b],
+            "vertices {a} and {b} at {}",
+            shown.vertices[a]
+        );
     }
 }

@@ -82,6 +82,8 @@ struct Source {
     patch: u32,
     /// Whether its elements' radiosity is within the uniformity factor.
     even: bool,
+    /// Its area over its patch's.
+    share_of_patch: f32,
     /// Range of its elements' radiosity levels (sum of rgb, exposed ones).
     lo: f32,
     hi: f32,
@@ -277,6 +279,14 @@ fn sources(
     exposed: &[ExposedPart],
     uniformity: f32,
 ) -> Vec<Source> {
+    // Parents come before their children in the tree.
+    let mut patch_area = vec![0.0f32; tree.nodes.len()];
+    for (n, node) in tree.nodes.iter().enumerate() {
+        patch_area[n] = match node.parent {
+            u32::MAX => node.area,
+            p => patch_area[p as usize],
+        };
+    }
     tree.nodes
         .iter()
         .enumerate()
@@ -318,6 +328,7 @@ fn sources(
                 normal: node.normal,
                 patch: node.patch,
                 even: hi <= uniformity * lo || hi <= 0.0,
+                share_of_patch: node.area / patch_area[n].max(f32::MIN_POSITIVE),
                 lo,
                 hi,
                 emits: scene.patch_material(node.patch).is_emitter(),
@@ -358,7 +369,10 @@ impl Receiver {
             return 0.0;
         }
         let rays = if src.emits {
-            settings.emitter_rays
+            // A whole light gets them all, its parts their share (near a
+            // light its parts are gathered one by one).
+            ((settings.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
+                .clamp(16, settings.emitter_rays)
         } else {
             ((exact * 64.0).ceil() as usize).clamp(1, settings.reflector_rays)
         };
