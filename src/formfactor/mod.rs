@@ -7,6 +7,7 @@
 pub mod analytic;
 pub mod gather;
 pub mod hemicube;
+pub mod integrate;
 pub mod raytrace;
 pub mod receivers;
 pub mod sampling;

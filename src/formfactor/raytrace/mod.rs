@@ -16,6 +16,17 @@
 //! result is `F_ij = F_ji A_j / A_i` (reciprocity). Elements of the
 //! shooter's patch, and any element lying in the shooter's plane, get 0.
 //!
+//! Near the shooter (closer than `analytic::NEAR_ELEMENT` of its own
+//! diameters) an element's corners do not tell its form factor: a large
+//! receiver element beside a small shooter has a corner next to it whose
+//! point value, times A_j / A_i, makes the shooter's row sum far above 1
+//! (45 on a discontinuity sliver). There (default estimator only) F_ji is
+//! the exact unoccluded factor integrated over the element
+//! (`analytic::near_element_factor`, adaptive) times the visible share
+//! its corners' rays measured (`sum value / sum exact` over the corners).
+//! Not a clamp: the row stays an estimate of the true row, which sums to at
+//! most 1.
+//!
 //! Visibility: a BVH over the scene's patches (fan-triangulated); every
 //! patch blocks from both sides. A segment ignores the receiver's and the
 //! shooter's own patch and anything closer than `1e-5 * extent` to either
@@ -54,7 +65,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::analytic::point_to_polygon;
+use super::analytic::{bounding_ball, near_element_factor, point_to_polygon};
 use super::receivers::vertex_frames;
 use super::sampling::{grid, Pcg32, Shooter};
 use crate::mesh::Mesh;
@@ -155,18 +166,19 @@ impl<'a> RayTracedFormFactors<'a> {
                 vec![0.0; mesh.vertices.len()],
             );
         }
-        let per_vertex: Vec<f32> = (0..mesh.vertices.len())
+        // (occluded value, unoccluded exact value) per vertex.
+        let per_vertex: Vec<(f32, f32)> = (0..mesh.vertices.len())
             .into_par_iter()
             .map(|v| {
                 let patch = self.vertex_patches[v];
                 if patch == src.patch || patch == u32::MAX {
-                    return 0.0;
+                    return (0.0, 0.0);
                 }
                 let mut rng = Pcg32::new(seed, v as u64);
-                self.point_ff(
-                    self.vertex_points[v],
-                    self.vertex_normals[v],
-                    patch,
+                point_form_factor_parts(
+                    &self.occluders,
+                    self.estimator,
+                    (self.vertex_points[v], self.vertex_normals[v], patch),
                     &src,
                     rays,
                     &mut rng,
@@ -174,6 +186,7 @@ impl<'a> RayTracedFormFactors<'a> {
             })
             .collect();
         let eps = self.occluders.eps;
+        let ball = bounding_ball(&src.polygon);
         let per_element = mesh
             .elements
             .par_iter()
@@ -182,12 +195,34 @@ impl<'a> RayTracedFormFactors<'a> {
                     return 0.0;
                 }
                 let corners = e.corners();
-                let mean = corners.iter().map(|&v| per_vertex[v as usize]).sum::<f32>()
+                if self.estimator == Estimator::ExactTimesVisibility {
+                    let element: Vec<_> = corners
+                        .iter()
+                        .map(|&v| mesh.vertices[v as usize].as_dvec3())
+                        .collect();
+                    let near =
+                        near_element_factor(&element, e.normal.as_dvec3(), &src.polygon, ball);
+                    if let Some(exact) = near {
+                        // The element's exact factor times the visible
+                        // share its corners' rays found.
+                        let (seen, open) = corners.iter().fold((0.0f32, 0.0f32), |(s, o), &v| {
+                            let (value, exact) = per_vertex[v as usize];
+                            (s + value, o + exact)
+                        });
+                        let visible = if open > 0.0 { seen / open } else { 1.0 };
+                        return (exact * f64::from(visible) * f64::from(e.area)
+                            / f64::from(src.area)) as f32;
+                    }
+                }
+                let mean = corners
+                    .iter()
+                    .map(|&v| per_vertex[v as usize].0)
+                    .sum::<f32>()
                     / corners.len() as f32;
                 mean * e.area / src.area
             })
             .collect();
-        (per_element, per_vertex)
+        (per_element, per_vertex.into_iter().map(|p| p.0).collect())
     }
 
     /// The form factor from a differential area at `p` (unit normal `n`,
@@ -240,20 +275,33 @@ impl<'a> RayTracedFormFactors<'a> {
 pub(crate) fn point_form_factor(
     occluders: &Occluders,
     estimator: Estimator,
-    (p, n, receiver_patch): (Vec3, Vec3, u32),
+    receiver: (Vec3, Vec3, u32),
     src: &Shooter,
     rays: usize,
     rng: &mut Pcg32,
 ) -> f32 {
+    point_form_factor_parts(occluders, estimator, receiver, src, rays, rng).0
+}
+
+/// [`point_form_factor`], and with it the exact unoccluded point form
+/// factor (`ExactTimesVisibility`; for `Wallace`, the same value twice).
+fn point_form_factor_parts(
+    occluders: &Occluders,
+    estimator: Estimator,
+    (p, n, receiver_patch): (Vec3, Vec3, u32),
+    src: &Shooter,
+    rays: usize,
+    rng: &mut Pcg32,
+) -> (f32, f32) {
     // The shooter emits to its front only: nothing reaches a point
     // behind (or in) its plane.
     if (p - src.centre).dot(src.normal) <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     // Nothing either if the whole shooter is behind p's tangent plane.
     let s = &src.sampler;
     if s.corners[..s.count].iter().all(|&c| (c - p).dot(n) <= 0.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let da = src.area / rays as f32;
     let (rows, cols) = grid(rays);
@@ -284,13 +332,13 @@ pub(crate) fn point_form_factor(
         }
     }
     match estimator {
-        Estimator::Wallace => sum * da,
+        Estimator::Wallace => (sum * da, sum * da),
         Estimator::ExactTimesVisibility => {
             if all.is_nan() || all <= 0.0 {
-                return 0.0;
+                return (0.0, 0.0);
             }
             let exact = point_to_polygon(p.as_dvec3(), n.as_dvec3(), &src.polygon) as f32;
-            exact * (sum / all)
+            (exact * (sum / all), exact)
         }
     }
 }
