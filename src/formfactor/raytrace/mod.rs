@@ -23,9 +23,23 @@
 //! (45 on a discontinuity sliver). There (default estimator only) F_ji is
 //! the exact unoccluded factor integrated over the element
 //! (`analytic::near_element_factor`, adaptive) times the visible share
-//! its corners' rays measured (`sum value / sum exact` over the corners).
-//! Not a clamp: the row stays an estimate of the true row, which sums to at
-//! most 1.
+//! that rays from its corners and from a 3 x 3 grid of interior points
+//! measured (`sum value / sum exact` over those points).
+//!
+//! **The row against the shooter's own rays** (default estimator): the
+//! true row sums to the share of the shooter's hemisphere whose first hit
+//! is the front of some patch. 1024 stratified cosine-distributed rays
+//! from the shooter estimate that share (`source.rs`); a row whose sum
+//! lies outside the share's Wilson interval at three sigma (never above 1)
+//! is rescaled to the nearer end of it, from above or from below. Rows
+//! that the receivers got right are left alone: the interval is wide (a
+//! closed room's rows may lie anywhere in [0.991, 1]; a row of small
+//! distant receivers, which few rays hit, is never touched). What it
+//! catches is a receiver-side estimate that is wrong beyond doubt: a row
+//! above 1, or a shooter pressed face to face against another solid, which
+//! the receivers' rays see (hits at their ends do not block) while its own
+//! rays all enter that solid. No row ever sums above 1. The vertex values
+//! are point values and are not rescaled.
 //!
 //! Visibility: a BVH over the scene's patches (fan-triangulated); every
 //! patch blocks from both sides. A segment ignores the receiver's and the
@@ -67,15 +81,22 @@ use rayon::prelude::*;
 
 use super::analytic::{bounding_ball, near_element_factor, point_to_polygon};
 use super::receivers::vertex_frames;
-use super::sampling::{grid, Pcg32, Shooter};
+use super::sampling::{grid, Pcg32, Sampler, Shooter};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
 mod occluders;
+mod source;
 #[cfg(test)]
 mod tests;
 
 pub use occluders::Occluders;
+use source::source_share;
+
+/// Rays from each of the 3 x 3 interior points of a near element.
+const INTERIOR_RAYS: usize = 16;
+/// The random stream family of those points (vertices use stream v).
+const NEAR_STREAM: u64 = 0x6e65_6172_0000_0000;
 
 /// How the form factor from a receiver vertex to the shooter is estimated
 /// from its `n` rays (terms `t_k = cos_v cos_i / (pi r_k^2 + A_i/n)`,
@@ -104,6 +125,10 @@ pub enum Estimator {
 pub struct RayTracedFormFactors<'a> {
     /// How a vertex's form factor is estimated from its rays.
     pub estimator: Estimator,
+    /// Whether a row is checked against the shooter's own rays (default
+    /// estimator only; see the module notes). On by default; off only to
+    /// measure what the check does.
+    pub source_check: bool,
     pub scene: &'a Scene,
     pub mesh: &'a Mesh,
     pub occluders: Occluders,
@@ -126,6 +151,7 @@ impl<'a> RayTracedFormFactors<'a> {
         let (vertex_points, vertex_normals, vertex_patches) = vertex_frames(scene, mesh);
         RayTracedFormFactors {
             estimator: Estimator::default(),
+            source_check: true,
             scene,
             mesh,
             occluders: Occluders::new(scene),
@@ -187,10 +213,11 @@ impl<'a> RayTracedFormFactors<'a> {
             .collect();
         let eps = self.occluders.eps;
         let ball = bounding_ball(&src.polygon);
-        let per_element = mesh
+        let mut per_element: Vec<f32> = mesh
             .elements
             .par_iter()
-            .map(|e| {
+            .enumerate()
+            .map(|(j, e)| {
                 if e.patch == src.patch || src.coplanar(e, eps) {
                     return 0.0;
                 }
@@ -204,11 +231,32 @@ impl<'a> RayTracedFormFactors<'a> {
                         near_element_factor(&element, e.normal.as_dvec3(), &src.polygon, ball);
                     if let Some(exact) = near {
                         // The element's exact factor times the visible
-                        // share its corners' rays found.
-                        let (seen, open) = corners.iter().fold((0.0f32, 0.0f32), |(s, o), &v| {
-                            let (value, exact) = per_vertex[v as usize];
-                            (s + value, o + exact)
-                        });
+                        // share that rays from its corners and from a 3 x 3
+                        // grid inside it found (weighted by the point
+                        // values: a large element can be partly hidden
+                        // from a small shooter while its corners see it).
+                        let (mut seen, mut open) =
+                            corners.iter().fold((0.0f32, 0.0f32), |(s, o), &v| {
+                                let (value, exact) = per_vertex[v as usize];
+                                (s + value, o + exact)
+                            });
+                        let inner: Vec<Vec3> = element.iter().map(|p| p.as_vec3()).collect();
+                        let inner = Sampler::new(&inner);
+                        let mut rng = Pcg32::new(seed ^ NEAR_STREAM, j as u64);
+                        for k in 0..9 {
+                            let (a, b) = ((k / 3) as f32, (k % 3) as f32);
+                            let p = inner.point((a + 0.5) / 3.0, (b + 0.5) / 3.0);
+                            let (value, exact) = point_form_factor_parts(
+                                &self.occluders,
+                                self.estimator,
+                                (p, e.normal, e.patch),
+                                &src,
+                                rays.min(INTERIOR_RAYS),
+                                &mut rng,
+                            );
+                            seen += value;
+                            open += exact;
+                        }
                         let visible = if open > 0.0 { seen / open } else { 1.0 };
                         return (exact * f64::from(visible) * f64::from(e.area)
                             / f64::from(src.area)) as f32;
@@ -222,6 +270,16 @@ impl<'a> RayTracedFormFactors<'a> {
                 mean * e.area / src.area
             })
             .collect();
+        if self.estimator == Estimator::ExactTimesVisibility && self.source_check {
+            // The row's sum against the shooter's own rays (see the
+            // module notes).
+            let share = source_share(&self.occluders, &src, seed);
+            let sum = per_element.iter().map(|&f| f64::from(f)).sum::<f64>();
+            let k = share.correction(sum) as f32;
+            if k != 1.0 {
+                per_element.iter_mut().for_each(|f| *f *= k);
+            }
+        }
         (per_element, per_vertex.into_iter().map(|p| p.0).collect())
     }
 
