@@ -270,7 +270,7 @@ fn accuracy_lines(out: &FormFactorOutput, method_name: &str) -> Vec<String> {
             c.count(EntrySource::Method),
         ),
         format!(
-            "  integrated entries (e, r, u): estimated error at most {abs:.1e} absolute, {rel:.1e} relative"
+            "  integrated entries (e, r, u): estimated error at most {abs:.1e} absolute, {rel:.1e} relative (entries >= 1e-3)"
         ),
     ];
     if c.count(EntrySource::Method) > 0 {
@@ -345,7 +345,7 @@ pub(crate) fn print_form_factors(
                 serde_json::json!({
                     "estimated": true,
                     "summary": accuracy,
-                    "errors_definition": "estimated absolute error of each entry (sum over the adaptive rule's regions of |coarse - fine|, including the rays' noise where rays were traced); null where the method's own value is kept",
+                    "errors_definition": "estimated absolute error of each entry (sum over the adaptive rule's regions of |coarse - fine|, including the rays' noise where rays were traced); null where the method's own value is kept; max_relative_error is over entries of at least 1e-3",
                     "errors": c.error,
                     "sources": sources,
                     "max_error": abs,

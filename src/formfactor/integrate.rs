@@ -77,10 +77,10 @@ fn radon() -> [([f64; 3], f64); 7] {
     ]
 }
 
-type Tri = [DVec3; 3];
+pub(crate) type Tri = [DVec3; 3];
 
-/// The four midpoint children of a triangle.
-fn children(t: &Tri) -> [Tri; 4] {
+/// The four midpoint children of a triangle (oriented as it is).
+pub(crate) fn children(t: &Tri) -> [Tri; 4] {
     let [a, b, c] = *t;
     let (ab, bc, ca) = ((a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5);
     [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]

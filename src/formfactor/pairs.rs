@@ -11,27 +11,33 @@
 //! between them and the exact unoccluded integral is the answer.
 //!
 //! **Blocked pairs.** Otherwise every integration point x on the smaller
-//! patch gets its exact point form factor to the other times the visible
-//! share of it: `rays` stratified rays to the other patch, each weighted by
-//! its point kernel `cos cos / (pi r^2 + A/n)` (as `raytrace`'s default
-//! estimator does at vertices). The adaptive rule then refines where that
-//! product varies: along shadow edges as well as in the near field. Its
-//! error estimate includes the rays' noise (conservatively: a sum of
-//! absolute differences, not a root sum of squares).
+//! patch gets its occluded point form factor to the other from cells of
+//! about equal form factor (the other's fan triangles split at their
+//! midpoints while a cell holds more than `1 / rays` of x's factor): each
+//! cell gives its exact factor, less its area times the point kernel at a
+//! random point of it when the ray there is blocked. That is unbiased
+//! (the kernel's mean over the cell is the cell's factor) and exact for
+//! every cell wholly seen. Simpler weights were biased where a pair
+//! touches (a block on a floor): rays weighted by the point kernel with
+//! `raytrace`'s `A / n` disc term underweight what is next to x (11% low at
+//! 16 rays), and exact cell factors times a plain visible/blocked ray leave
+//! the shadow's share within each cell area-weighted (2.5% low). The
+//! adaptive rule then refines where the integrand varies: along shadow
+//! edges as well as in the near field. Its error estimate includes the
+//! rays' noise (a sum of absolute differences, not a root sum of squares:
+//! measured on the Cornell box, 2 to 20 times the true error).
 //!
 //! Either way one integral gives both directions: the smaller patch is
 //! integrated (its integrand is the smoother one; a small patch close over
 //! a large one sees nearly the same thing from all its points) and
 //! reciprocity, `A_i F_ij = A_j F_ji`, gives the other.
 
-use std::f64::consts::PI;
-
 use glam::DVec3;
 
 use super::analytic::point_to_polygon;
-use super::integrate::{mean_over_polygon, polygon_distance, Tolerance};
+use super::integrate::{children, mean_over_polygon, polygon_distance, Tolerance, Tri};
 use super::raytrace::Occluders;
-use super::sampling::{grid, Pcg32};
+use super::sampling::Pcg32;
 use crate::geom::newell;
 use crate::scene::Scene;
 
@@ -172,7 +178,9 @@ impl PatchPairs {
         // Integrate over the smaller patch s, towards the other, o.
         let (s, o) = if a_i <= a_j { (i, j) } else { (j, i) };
         let (n, to) = (self.normals[s], &self.polygons[o]);
-        let sampler = FanSampler::new(to);
+        let fan: Vec<Tri> = (1..to.len().saturating_sub(1))
+            .map(|k| [to[0], to[k], to[k + 1]])
+            .collect();
         let mut stream = 0u64;
         let r = mean_over_polygon(&self.polygons[s], tol, |x| {
             let exact = point_to_polygon(x, n, to);
@@ -181,14 +189,16 @@ impl PatchPairs {
                     stream += 1;
                     let mut rng = Pcg32::new(seed, stream);
                     let skip = [s as u32, o as u32];
-                    exact * self.visible_share(x, n, (o, &sampler), skip, rays, &mut rng)
+                    let cell = exact / rays as f64;
+                    self.visible_factor(x, n, (&fan, cell), skip, &mut rng)
                 }
                 _ => exact,
             }
         });
-        // r is F_so; reciprocity gives F_os.
+        // r is F_so (a traced estimate can dip below 0 where almost all
+        // is blocked); reciprocity gives F_os.
         let (a_s, a_o) = (self.areas[s], self.areas[o]);
-        let (f_so, e_so) = (r.value, r.error);
+        let (f_so, e_so) = (r.value.max(0.0), r.error);
         let (f_os, e_os) = (f_so * a_s / a_o, e_so * a_s / a_o);
         let (f_ij, f_ji, error_ij, error_ji) = if s == i {
             (f_so, f_os, e_so, e_os)
@@ -205,49 +215,53 @@ impl PatchPairs {
         }
     }
 
-    /// The share of the point form factor from `x` (normal `n`) to patch
-    /// `o` that is not blocked, by stratified rays weighted by the point
-    /// kernel. 1 when no ray reaches the front of `o`.
-    fn visible_share(
+    /// The occluded point form factor from `x` (normal `n`) to the patch
+    /// made of the triangles `fan`: cut into cells of at most `cell` form
+    /// factor each (midpoint splits, 16 levels at most); each cell gives
+    /// its exact factor `f`, less `A k(y)` when the ray to a random point y
+    /// of it is blocked (A the cell's area, k the point kernel
+    /// `cos cos / (pi r^2)`, whose mean over the cell is `f / A`): unbiased,
+    /// and exact wherever a cell is wholly seen. A single estimate can be a
+    /// little below 0.
+    fn visible_factor(
         &self,
         x: DVec3,
         n: DVec3,
-        (o, sampler): (usize, &FanSampler),
+        (fan, cell): (&[Tri], f64),
         skip: [u32; 2],
-        rays: usize,
         rng: &mut Pcg32,
     ) -> f64 {
-        let no = self.normals[o];
-        let da = self.areas[o] / rays as f64;
-        let (rows, cols) = grid(rays);
-        let (mut all, mut seen) = (0.0, 0.0);
-        for r in 0..rows {
-            for c in 0..cols {
-                let u = (r as f64 + f64::from(rng.next_f32())) / rows as f64;
-                let w = (c as f64 + f64::from(rng.next_f32())) / cols as f64;
-                let y = sampler.point(u, w);
+        let mut sum = 0.0;
+        let mut stack: Vec<(Tri, u32)> = fan.iter().map(|t| (*t, 0)).collect();
+        while let Some((t, depth)) = stack.pop() {
+            let f = point_to_polygon(x, n, &t);
+            if f <= 0.0 {
+                continue;
+            }
+            if f > cell && depth < 16 {
+                stack.extend(children(&t).iter().map(|c| (*c, depth + 1)));
+                continue;
+            }
+            let (r1, r2) = (f64::from(rng.next_f32()), f64::from(rng.next_f32()));
+            let (a, b) = (r1.sqrt(), r2);
+            let y = t[0] * (1.0 - a) + t[1] * (a * (1.0 - b)) + t[2] * (a * b);
+            sum += f;
+            if !self.occluders.visible(x.as_vec3(), y.as_vec3(), skip) {
+                // Minus the blocked point's share: area times the point
+                // kernel, whose mean over the cell is f (so the estimate
+                // is unbiased, and exact for a cell wholly seen).
                 let d = y - x;
                 let r2 = d.length_squared();
-                if r2.is_nan() || r2 <= 0.0 {
-                    continue;
-                }
-                let len = r2.sqrt();
-                let (cos_x, cos_o) = (n.dot(d) / len, -no.dot(d) / len);
-                if cos_x <= 0.0 || cos_o <= 0.0 {
-                    continue;
-                }
-                let term = cos_x * cos_o / (PI * r2 + da);
-                all += term;
-                if self.occluders.visible(x.as_vec3(), y.as_vec3(), skip) {
-                    seen += term;
+                let no = (t[1] - t[0]).cross(t[2] - t[0]);
+                let twice_area = no.length();
+                if r2 > 0.0 && twice_area > 0.0 {
+                    let cos_x = n.dot(d).max(0.0);
+                    let cos_y = (-no.dot(d) / twice_area).max(0.0);
+                    sum -= 0.5 * twice_area * cos_x * cos_y / (std::f64::consts::PI * r2 * r2);
                 }
             }
         }
-        if all > 0.0 {
-            seen / all
-        } else {
-            1.0
-        }
+        sum
     }
 }
 
@@ -296,64 +310,10 @@ fn hull_meets(hull: &[DVec3], poly: &[DVec3], n: DVec3, touch: f64) -> bool {
     true
 }
 
-/// Area-uniform points on a convex polygon from the unit square: the first
-/// coordinate picks a fan triangle by its share of the area (so strata of
-/// the square are strata of equal area), the second runs across it.
-#[derive(Debug, Clone)]
-struct FanSampler {
-    apex: DVec3,
-    edges: Vec<(DVec3, DVec3)>,
-    /// Cumulative area fractions of the fan triangles.
-    cumulative: Vec<f64>,
-}
-
-impl FanSampler {
-    fn new(poly: &[DVec3]) -> Self {
-        let apex = poly[0];
-        let edges: Vec<(DVec3, DVec3)> = (1..poly.len().saturating_sub(1))
-            .map(|k| (poly[k], poly[k + 1]))
-            .collect();
-        let areas: Vec<f64> = edges
-            .iter()
-            .map(|(b, c)| (*b - apex).cross(*c - apex).length())
-            .collect();
-        let total: f64 = areas.iter().sum();
-        let mut acc = 0.0;
-        let cumulative = areas
-            .iter()
-            .map(|a| {
-                acc += a;
-                if total > 0.0 {
-                    acc / total
-                } else {
-                    1.0
-                }
-            })
-            .collect();
-        FanSampler {
-            apex,
-            edges,
-            cumulative,
-        }
-    }
-
-    fn point(&self, u: f64, w: f64) -> DVec3 {
-        let last = self.edges.len().saturating_sub(1);
-        let k = self.cumulative.partition_point(|&c| c <= u).min(last);
-        let lo = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
-        let span = self.cumulative[k] - lo;
-        let uu = if span > 0.0 {
-            ((u - lo) / span).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let (b, c) = self.edges[k];
-        self.apex + uu.sqrt() * ((b - self.apex) + w * (c - b))
-    }
-}
-
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
     use glam::Vec3;
 
     use super::*;
@@ -370,27 +330,6 @@ mod tests {
             v.reverse();
         }
         v
-    }
-
-    #[test]
-    fn fan_sampler_is_uniform_in_area() {
-        // A pentagon: the mean of stratified samples is its centroid.
-        let poly: Vec<DVec3> = (0..5)
-            .map(|k| {
-                let t = 2.0 * PI * f64::from(k) / 5.0;
-                DVec3::new(1.0 + t.cos(), 2.0 * t.sin(), 0.0)
-            })
-            .collect();
-        let s = FanSampler::new(&poly);
-        let n = 200;
-        let mut mean = DVec3::ZERO;
-        for a in 0..n {
-            for b in 0..n {
-                mean += s.point((a as f64 + 0.5) / n as f64, (b as f64 + 0.5) / n as f64);
-            }
-        }
-        mean /= (n * n) as f64;
-        assert!(mean.distance(DVec3::new(1.0, 0.0, 0.0)) < 3e-3, "{mean}");
     }
 
     #[test]
@@ -448,5 +387,44 @@ mod tests {
         assert!(shaded.f_ij < 0.9 * open.f_ij, "{shaded:?}");
         assert!((shaded.f_ij - shaded.f_ji).abs() < 1e-12);
         assert_eq!(shaded, pairs.occluded(0, 1, 64, 1, &tol));
+    }
+
+    /// The per-point estimate is unbiased whatever the ray count: a point
+    /// under a square with a blocker hiding its central quarter (the cells
+    /// do not align with the shadow off the axis).
+    #[test]
+    fn visible_factor_is_unbiased() {
+        let shooter = square(2.0, 1.0, true);
+        let s = scene(&[
+            &shooter,
+            &square(0.0, 0.5, false),
+            &square(1.0, 0.25, false),
+        ]);
+        let pairs = PatchPairs::new(&s);
+        let to: Vec<DVec3> = shooter.iter().map(|v| v.as_dvec3()).collect();
+        let fan: Vec<Tri> = vec![[to[0], to[1], to[2]], [to[0], to[2], to[3]]];
+        let quarter: Vec<DVec3> = square(2.0, 0.5, true)
+            .iter()
+            .map(|v| v.as_dvec3())
+            .collect();
+        let open = point_to_polygon(DVec3::ZERO, DVec3::Z, &to);
+        let exact = open - point_to_polygon(DVec3::ZERO, DVec3::Z, &quarter);
+        for rays in [4usize, 16] {
+            let seeds = 2000;
+            let (mut sum, mut sq) = (0.0, 0.0);
+            for seed in 0..seeds {
+                let mut rng = Pcg32::new(seed, 7);
+                let cell = open / rays as f64;
+                let v = pairs.visible_factor(DVec3::ZERO, DVec3::Z, (&fan, cell), [1, 0], &mut rng);
+                sum += v;
+                sq += v * v;
+            }
+            let mean = sum / seeds as f64;
+            let se = ((sq / seeds as f64 - mean * mean) / seeds as f64).sqrt();
+            assert!(
+                (mean - exact).abs() < 4.0 * se + 1e-6,
+                "{rays}: {mean} +- {se} vs {exact}"
+            );
+        }
     }
 }

@@ -237,14 +237,15 @@ impl CheckedPatchFormFactors {
     }
 
     /// The largest estimated absolute error, and the largest relative to its
-    /// entry (over entries above 1e-5), of the entries with an estimate.
+    /// entry (over entries of at least 1e-3), of the entries with an
+    /// estimate.
     pub fn max_error(&self) -> (f64, f64) {
         let mut worst = (0.0f64, 0.0f64);
         for (row, errors) in self.matrix.iter().zip(&self.error) {
             for (f, e) in row.iter().zip(errors) {
                 if let Some(e) = e {
                     worst.0 = worst.0.max(*e);
-                    if *f >= 1e-5 {
+                    if *f >= 1e-3 {
                         worst.1 = worst.1.max(e / f);
                     }
                 }
