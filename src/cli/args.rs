@@ -310,6 +310,13 @@ pub(crate) struct FormFactorArgs {
     /// Print JSON (patch names, areas and the matrix) instead of a table.
     #[arg(long)]
     pub(crate) json: bool,
+    /// Print the --ff method's own matrix, without integrating any pair:
+    /// by default, pairs nothing blocks between, and pairs where the
+    /// method is known to fail (near, edge-adjacent, too small for the
+    /// hemicube), are integrated adaptively and every entry states its
+    /// accuracy.
+    #[arg(long)]
+    pub(crate) method_only: bool,
     #[command(flatten)]
     pub(crate) mesh: MeshArgs,
     #[command(flatten)]

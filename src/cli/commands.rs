@@ -10,12 +10,13 @@ use anyhow::{bail, Context, Result};
 use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
 use super::print::{
     describe_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
-    print_summary,
+    print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
 use vkrad::app::{run_scene, CameraOverride, Job};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
 use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
 
@@ -202,18 +203,39 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
             eprint!("\r  patch {done}/{n}   ");
         }
     };
-    let ff = match method {
+    let checked = !args.method_only;
+    // The method's own matrix (the analytic method's is not needed: every
+    // pair is integrated).
+    let raw = match method {
+        FormFactorMethod::Analytic if checked => None,
         FormFactorMethod::Hemicube => {
             let device = Device::new(&args.gpu.options())?;
             let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, progress)?;
             device.check_validation()?;
-            ff
+            Some(ff)
         }
-        _ => patch_form_factors_cpu(&scene, &mesh, method, progress)?,
+        _ => Some(patch_form_factors_cpu(&scene, &mesh, method, progress)?),
+    };
+    let output = if checked {
+        let settings = MatrixSettings {
+            rays: args.mesh.rays.max(1),
+            ..MatrixSettings::default()
+        };
+        let ff = checked_patch_form_factors(
+            &scene,
+            &mesh,
+            method,
+            raw.as_ref(),
+            (args.mesh.hemicube_res, &settings),
+            progress,
+        )?;
+        FormFactorOutput::Checked(ff)
+    } else {
+        FormFactorOutput::MethodOnly(raw.context("the method's matrix")?)
     };
     if show_progress {
         eprint!("\r{:40}\r", "");
     }
-    print_form_factors(&scene, &mesh, &ff.matrix, &args, method, max_edge)?;
+    print_form_factors(&scene, &mesh, &output, &args, method, max_edge)?;
     Ok(())
 }

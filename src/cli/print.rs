@@ -8,7 +8,8 @@ use vkrad::bench::BenchReport;
 use vkrad::mesh::build::{CostEstimate, MeshReport};
 use vkrad::mesh::Mesh;
 use vkrad::scene::Scene;
-use vkrad::solve::FormFactorMethod;
+use vkrad::solve::patch_matrix::{CheckedPatchFormFactors, EntrySource};
+use vkrad::solve::{FormFactorMethod, PatchFormFactors};
 
 /// "N elements, X MB host, Y MB GPU".
 pub(crate) fn describe_estimate(e: &CostEstimate) -> String {
@@ -222,14 +223,81 @@ pub(crate) fn print_bench(report: &BenchReport) {
 }
 
 /// The patch matrix as a table or (`--json`) a JSON document.
+/// What `vkrad formfactors` computed: the checked matrix (default) or
+/// the method's own (`--method-only`).
+pub(crate) enum FormFactorOutput {
+    Checked(CheckedPatchFormFactors),
+    MethodOnly(PatchFormFactors),
+}
+
+impl FormFactorOutput {
+    fn matrix(&self) -> &[Vec<f64>] {
+        match self {
+            FormFactorOutput::Checked(c) => &c.matrix,
+            FormFactorOutput::MethodOnly(m) => &m.matrix,
+        }
+    }
+}
+
+/// One letter per entry source, for the table.
+fn source_letter(s: EntrySource) -> char {
+    match s {
+        EntrySource::Diagonal => ' ',
+        EntrySource::Exact => 'e',
+        EntrySource::ExactTimesRays => 'r',
+        EntrySource::ExactUnoccluded => 'u',
+        EntrySource::Method => 'm',
+    }
+}
+
+/// What the output says about its accuracy, as lines of text.
+fn accuracy_lines(out: &FormFactorOutput, method_name: &str) -> Vec<String> {
+    let c = match out {
+        FormFactorOutput::MethodOnly(_) => {
+            return vec![format!(
+                "accuracy: not estimated (--method-only: the {method_name} matrix as computed; near, edge-adjacent and small pairs can be far off, see FORMFACTORS.md)"
+            )]
+        }
+        FormFactorOutput::Checked(c) => c,
+    };
+    let (abs, rel) = c.max_error();
+    let mut lines = vec![
+        format!(
+            "accuracy: pairs (i < j): {} exact (nothing blocks; e), {} exact x rays (near or small, something may block; r), {} exact unoccluded (u), {} by {method_name} (m)",
+            c.count(EntrySource::Exact),
+            c.count(EntrySource::ExactTimesRays),
+            c.count(EntrySource::ExactUnoccluded),
+            c.count(EntrySource::Method),
+        ),
+        format!(
+            "  integrated entries (e, r, u): estimated error at most {abs:.1e} absolute, {rel:.1e} relative (entries >= 1e-3)"
+        ),
+    ];
+    if c.count(EntrySource::Method) > 0 {
+        lines.push(match c.method_check {
+            Some(m) => format!(
+                "  {method_name} entries (m): no estimate each; on the {} entries where it could be checked against exact values (clear pairs outside its failure regime) it was within {:.2}% (rms {:.2}%)",
+                m.entries,
+                100.0 * m.max_relative,
+                100.0 * m.rms_relative
+            ),
+            None => format!(
+                "  {method_name} entries (m): no estimate (no pair in this scene to check the method on)"
+            ),
+        });
+    }
+    lines
+}
+
 pub(crate) fn print_form_factors(
     scene: &Scene,
     mesh: &Mesh,
-    matrix: &[Vec<f64>],
+    out: &FormFactorOutput,
     args: &FormFactorArgs,
     method: FormFactorMethod,
     max_edge: f32,
 ) -> anyhow::Result<()> {
+    let matrix = out.matrix();
     let names: Vec<String> = scene
         .patches
         .iter()
@@ -242,6 +310,11 @@ pub(crate) fn print_form_factors(
             }
         })
         .collect();
+    let method_name = match method {
+        FormFactorMethod::Hemicube => format!("hemicube {}px", args.mesh.hemicube_res),
+        m => m.name(),
+    };
+    let accuracy = accuracy_lines(out, &method_name);
     if args.json {
         let patches: Vec<_> = scene
             .patches
@@ -257,6 +330,41 @@ pub(crate) fn print_form_factors(
                 })
             })
             .collect();
+        let accuracy_doc = match out {
+            FormFactorOutput::MethodOnly(_) => serde_json::json!({
+                "estimated": false,
+                "summary": accuracy,
+            }),
+            FormFactorOutput::Checked(c) => {
+                let (abs, rel) = c.max_error();
+                let sources: Vec<Vec<&str>> = c
+                    .source
+                    .iter()
+                    .map(|r| r.iter().map(|s| s.word()).collect())
+                    .collect();
+                serde_json::json!({
+                    "estimated": true,
+                    "summary": accuracy,
+                    "errors_definition": "estimated absolute error of each entry (sum over the adaptive rule's regions of |coarse - fine|, including the rays' noise where rays were traced); null where the method's own value is kept; max_relative_error is over entries of at least 1e-3",
+                    "errors": c.error,
+                    "sources": sources,
+                    "max_error": abs,
+                    "max_relative_error": rel,
+                    "pairs": {
+                        "exact": c.count(EntrySource::Exact),
+                        "exact_x_rays": c.count(EntrySource::ExactTimesRays),
+                        "exact_unoccluded": c.count(EntrySource::ExactUnoccluded),
+                        "method": c.count(EntrySource::Method),
+                    },
+                    "method_check": c.method_check.map(|m| serde_json::json!({
+                        "entries": m.entries,
+                        "max_relative": m.max_relative,
+                        "rms_relative": m.rms_relative,
+                    })),
+                    "integration_points": c.points,
+                })
+            }
+        };
         let doc = serde_json::json!({
             "scene": scene.source.display().to_string(),
             "method": method.name(),
@@ -267,19 +375,36 @@ pub(crate) fn print_form_factors(
             "definition": "F[i][j]: fraction of the power leaving patch i (uniform, diffuse) that arrives at patch j; average over patch i (thesis eq. 2.7)",
             "patches": patches,
             "form_factors": matrix,
+            "accuracy": accuracy_doc,
         });
         println!("{}", serde_json::to_string_pretty(&doc)?);
     } else {
         println!(
-            "form factors F[i][j] by {} ({} elements); rows: from patch i",
-            match method {
-                FormFactorMethod::Hemicube => format!("hemicube {}px", args.mesh.hemicube_res),
-                m => m.name(),
-            },
-            mesh.elements.len()
+            "form factors F[i][j] by {method_name} ({} elements){}; rows: from patch i",
+            mesh.elements.len(),
+            match out {
+                FormFactorOutput::Checked(_) =>
+                    ", pairs integrated where it fails or nothing blocks",
+                FormFactorOutput::MethodOnly(_) => "",
+            }
         );
         for (i, row) in matrix.iter().enumerate() {
-            let cells: Vec<String> = row.iter().map(|f| format!("{f:.5}")).collect();
+            let cells: Vec<String> = row
+                .iter()
+                .enumerate()
+                .map(|(j, f)| {
+                    let value = if *f == 0.0 || *f >= 1e-3 {
+                        format!("{f:.5}")
+                    } else {
+                        format!("{f:.2e}")
+                    };
+                    let letter = match out {
+                        FormFactorOutput::Checked(c) => source_letter(c.source[i][j]),
+                        FormFactorOutput::MethodOnly(_) => ' ',
+                    };
+                    format!("{value:>8}{letter}")
+                })
+                .collect();
             println!(
                 "{i:>3} {:<12} A={:<10.4} sum={:.5}  {}",
                 names[i],
@@ -287,6 +412,9 @@ pub(crate) fn print_form_factors(
                 row.iter().sum::<f64>(),
                 cells.join(" ")
             );
+        }
+        for line in &accuracy {
+            println!("{line}");
         }
     }
     Ok(())

@@ -5,13 +5,16 @@
 //! with `g_i = v_i - p` (sign chosen so a polygon facing `p` gives F > 0),
 //! after clipping the polygon to the half-space in front of `p`'s tangent
 //! plane. Polygon to polygon by Gauss-Legendre quadrature of the point form
-//! factor over the sending patch. All in `f64`.
+//! factor over the sending patch (a fixed rule: it does not converge in the
+//! near field), or adaptively (`polygon_to_polygon_adaptive`, with an
+//! error estimate). All in `f64`.
 
 use std::f64::consts::PI;
 
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::integrate::{mean_over_polygon, polygon_distance, Integral, Tolerance};
 use crate::geom::newell;
 pub use crate::geom::polygon_area;
 use crate::mesh::Mesh;
@@ -175,10 +178,89 @@ pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize)
     total / area
 }
 
+/// The form factor from planar convex polygon `from` to planar polygon
+/// `to`, without occlusion: the mean over `from` of the exact point form
+/// factor, integrated adaptively (`integrate::mean_over_polygon`), with
+/// its error estimate. Converges where [`polygon_to_polygon`]'s fixed rule
+/// does not: `to` close above `from` (near field) or sharing an edge with
+/// it. Only the front sides count.
+pub fn polygon_to_polygon_adaptive(from: &[DVec3], to: &[DVec3], tol: &Tolerance) -> Integral {
+    let n = newell(from);
+    if n.length() <= 0.0 || !n.is_finite() {
+        return Integral::default();
+    }
+    let n = n.normalize();
+    mean_over_polygon(from, tol, |x| point_to_polygon(x, n, to))
+}
+
+/// A receiver element closer to a source than this many times its own
+/// diameter gets its form factor from an integral over its area, not from
+/// the mean of its corners' point form factors: near the source those
+/// vary too much across it (a large element beside a small shooter: one
+/// corner next to the shooter sees it at up to 0.5, and the corner mean
+/// times A_j / A_i made rows sum to 45 on discontinuity slivers).
+pub const NEAR_ELEMENT: f64 = 3.0;
+
+/// How finely the near elements are integrated.
+const NEAR_TOLERANCE: Tolerance = Tolerance {
+    rel: 1e-3,
+    abs: 0.0,
+    max_points: 4_000,
+};
+
+/// The largest distance between two corners.
+fn diameter(poly: &[DVec3]) -> f64 {
+    let mut d = 0.0f64;
+    for (k, a) in poly.iter().enumerate() {
+        for b in &poly[k + 1..] {
+            d = d.max(a.distance(*b));
+        }
+    }
+    d
+}
+
+/// The exact unoccluded form factor from receiver element `element` (unit
+/// normal `normal`) to the source polygon `source`, integrated over the
+/// element, when the element is near the source (closer than
+/// [`NEAR_ELEMENT`] of its diameters); `None` when it is farther, where the
+/// mean of its corners' values is accurate. `source_centre` and
+/// `source_radius` bound the source (a quick test before the exact
+/// distance).
+pub fn near_element_factor(
+    element: &[DVec3],
+    normal: DVec3,
+    source: &[DVec3],
+    (source_centre, source_radius): (DVec3, f64),
+) -> Option<f64> {
+    let diam = diameter(element);
+    let centre = element.iter().copied().sum::<DVec3>() / element.len().max(1) as f64;
+    let near = NEAR_ELEMENT * diam;
+    if centre.distance(source_centre) - diam - source_radius >= near
+        || polygon_distance(element, source) >= near
+    {
+        return None;
+    }
+    Some(
+        mean_over_polygon(element, &NEAR_TOLERANCE, |x| {
+            point_to_polygon(x, normal, source)
+        })
+        .value,
+    )
+}
+
+/// The centre and radius of a ball around `poly`'s corners.
+pub fn bounding_ball(poly: &[DVec3]) -> (DVec3, f64) {
+    let centre = poly.iter().copied().sum::<DVec3>() / poly.len().max(1) as f64;
+    let radius = poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max);
+    (centre, radius)
+}
+
 /// F_ij from element `shooter` (i) to every element j of `mesh`, exact and
 /// without occlusion, sampled at the receivers' vertices: per receiver
 /// vertex v (normal of its patch) `F_{v->i} = point_to_polygon(v, n_v, i)`,
-/// F_ji is the mean over j's corners, and `F_ij = F_ji A_j / A_i`.
+/// F_ji is the mean over j's corners (or, for an element near the shooter,
+/// the mean over its area: [`near_element_factor`]), and
+/// `F_ij = F_ji A_j / A_i`.
 ///
 /// The same quantity as `raytrace::RayTracedFormFactors::from_shooter`
 /// without visibility and sampling noise; it equals the hemicube's
@@ -231,6 +313,7 @@ pub fn element_and_vertex_form_factors_analytic(
         .map(|v| (*v - poly[0]).length())
         .fold(0.0, f64::max);
     let centre = src.centre.as_dvec3();
+    let ball = bounding_ball(&poly);
     let per_element = mesh
         .elements
         .par_iter()
@@ -241,8 +324,15 @@ pub fn element_and_vertex_form_factors_analytic(
                 return 0.0;
             }
             let corners = e.corners();
-            let mean =
-                corners.iter().map(|&v| per_vertex[v as usize]).sum::<f64>() / corners.len() as f64;
+            let element: Vec<DVec3> = corners
+                .iter()
+                .map(|&v| mesh.vertices[v as usize].as_dvec3())
+                .collect();
+            let mean = near_element_factor(&element, e.normal.as_dvec3(), &poly, ball)
+                .unwrap_or_else(|| {
+                    corners.iter().map(|&v| per_vertex[v as usize]).sum::<f64>()
+                        / corners.len() as f64
+                });
             (mean * f64::from(e.area) / a_src) as f32
         })
         .collect();
@@ -450,5 +540,60 @@ mod tests {
         let e2 = (polygon_to_polygon(&floor(), &ceiling, 2) - exact).abs();
         let e6 = (polygon_to_polygon(&floor(), &ceiling, 6) - exact).abs();
         assert!(e6 < e2, "{e6} !< {e2}");
+    }
+
+    #[test]
+    fn adaptive_converges_where_the_fixed_rule_does_not() {
+        // Perpendicular unit squares sharing an edge (0.20004378) and a
+        // 0.2 square 0.02 over a 2 x 2 one (0.0099967, from the large one).
+        let wall = vec![
+            dv(0.0, 0.0, 0.0),
+            dv(0.0, 1.0, 0.0),
+            dv(0.0, 1.0, 1.0),
+            dv(0.0, 0.0, 1.0),
+        ];
+        let tol = Tolerance::default();
+        let r = polygon_to_polygon_adaptive(&floor(), &wall, &tol);
+        let exact = 0.200_043_776_075;
+        assert!(
+            (r.value - exact).abs() < 2e-6 && (r.value - exact).abs() <= r.error,
+            "{r:?}"
+        );
+        let panel = vec![
+            dv(-1.0, -1.0, 0.0),
+            dv(1.0, -1.0, 0.0),
+            dv(1.0, 1.0, 0.0),
+            dv(-1.0, 1.0, 0.0),
+        ];
+        let small = reversed(&[
+            dv(-0.1, -0.1, 0.02),
+            dv(0.1, -0.1, 0.02),
+            dv(0.1, 0.1, 0.02),
+            dv(-0.1, 0.1, 0.02),
+        ]);
+        let exact = 0.009_996_690_55;
+        let r = polygon_to_polygon_adaptive(&panel, &small, &tol);
+        assert!((r.value - exact).abs() < 1e-5 * exact, "{r:?}");
+        assert!((r.value - exact).abs() <= r.error, "{r:?}");
+        let fixed = polygon_to_polygon(&panel, &small, 16);
+        assert!((fixed - exact).abs() > 0.1 * exact, "{fixed}");
+    }
+
+    #[test]
+    fn only_near_elements_are_integrated() {
+        let source = reversed(&[
+            dv(0.0, 0.0, 1.0),
+            dv(0.1, 0.0, 1.0),
+            dv(0.1, 0.1, 1.0),
+            dv(0.0, 0.1, 1.0),
+        ]);
+        let ball = bounding_ball(&source);
+        // A unit element 1 below: nearer than 3 diameters, integrated.
+        let near = near_element_factor(&floor(), DVec3::Z, &source, ball).unwrap();
+        let exact = polygon_to_polygon(&floor(), &source, 16);
+        assert!((near - exact).abs() < 1e-3 * exact, "{near} vs {exact}");
+        // A small element far away: its corners tell.
+        let far: Vec<DVec3> = floor().iter().map(|v| *v * 0.1 - DVec3::Z * 2.0).collect();
+        assert!(near_element_factor(&far, DVec3::Z, &source, ball).is_none());
     }
 }

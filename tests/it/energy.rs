@@ -5,7 +5,7 @@
 use crate::common;
 
 use common::*;
-use vkrad::solve::{solve, SolveSettings};
+use vkrad::solve::{solve, FormFactorMethod, SolveSettings};
 
 struct Balance {
     mean_irradiance: f64,
@@ -16,7 +16,7 @@ struct Balance {
     converged: bool,
 }
 
-fn closed_room(rho: f32) -> Balance {
+fn closed_room(rho: f32, method: FormFactorMethod) -> Balance {
     let device = device();
     // Floor emits (radiance 1); every face reflects rho.
     let s = scene(
@@ -25,6 +25,7 @@ fn closed_room(rho: f32) -> Balance {
     );
     let mesh = vkrad::mesh::uniform(&s, 0.5);
     let settings = SolveSettings {
+        method,
         hemicube_res: 64,
         converge: 1e-5,
         max_shots: 20_000,
@@ -57,16 +58,19 @@ fn closed_room(rho: f32) -> Balance {
     }
 }
 
-fn check(rho: f32) {
-    let b = closed_room(rho);
+fn check(rho: f32, method: FormFactorMethod) {
+    let b = closed_room(rho, method);
     assert!(b.converged, "did not converge");
     let rel = (b.mean_irradiance - b.expected).abs() / b.expected;
     eprintln!(
-        "rho {rho}: mean irradiance {:.5} expected {:.5} ({:.3}%), {} shots",
+        "rho {rho}, {}: mean irradiance {:.5} expected {:.5} ({:.3}%), {} shots, shot {:.5} received {:.5}",
+        method.name(),
         b.mean_irradiance,
         b.expected,
         100.0 * rel,
-        b.history.len() - 1
+        b.history.len() - 1,
+        b.shot_power,
+        b.received_power
     );
     assert!(rel < 0.01, "energy balance off by {:.3}%", 100.0 * rel);
     // Closed room: all power shot is received.
@@ -90,12 +94,25 @@ fn check(rho: f32) {
 
 #[test]
 fn closed_room_energy_balance_rho_0_5() {
-    check(0.5);
+    check(0.5, FormFactorMethod::Hemicube);
 }
 
 #[test]
 fn closed_room_energy_balance_rho_0_8() {
-    check(0.8);
+    check(0.8, FormFactorMethod::Hemicube);
+}
+
+/// The same rooms with ray-traced form factors: every row of a closed room
+/// must sum to 1 for the light shot to be the light received (rows below 1
+/// lose light, rows above 1 make it).
+#[test]
+fn closed_room_energy_balance_rho_0_5_ray_traced() {
+    check(0.5, FormFactorMethod::RayTrace { rays: 64 });
+}
+
+#[test]
+fn closed_room_energy_balance_rho_0_8_ray_traced() {
+    check(0.8, FormFactorMethod::RayTrace { rays: 64 });
 }
 
 /// The mean of an image's pixels (sum of rgb).

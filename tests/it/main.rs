@@ -12,6 +12,7 @@ mod device_faults;
 mod discontinuity;
 mod energy;
 mod failure_modes;
+mod formfactor_exact;
 mod formfactor_hemicube;
 mod fuzz_loader;
 mod golden;

@@ -16,6 +16,31 @@
 //! result is `F_ij = F_ji A_j / A_i` (reciprocity). Elements of the
 //! shooter's patch, and any element lying in the shooter's plane, get 0.
 //!
+//! Near the shooter (closer than `analytic::NEAR_ELEMENT` of its own
+//! diameters) an element's corners do not tell its form factor: a large
+//! receiver element beside a small shooter has a corner next to it whose
+//! point value, times A_j / A_i, makes the shooter's row sum far above 1
+//! (45 on a discontinuity sliver). There (default estimator only) F_ji is
+//! the exact unoccluded factor integrated over the element
+//! (`analytic::near_element_factor`, adaptive) times the visible share
+//! that rays from its corners and from a 3 x 3 grid of interior points
+//! measured (`sum value / sum exact` over those points).
+//!
+//! **The row against the shooter's own rays** (default estimator): the
+//! true row sums to the share of the shooter's hemisphere whose first hit
+//! is the front of some patch. 1024 stratified cosine-distributed rays
+//! from the shooter estimate that share (`source.rs`); a row whose sum
+//! lies outside the share's Wilson interval at three sigma (never above 1)
+//! is rescaled to the nearer end of it, from above or from below. Rows
+//! that the receivers got right are left alone: the interval is wide (a
+//! closed room's rows may lie anywhere in [0.991, 1]; a row of small
+//! distant receivers, which few rays hit, is never touched). What it
+//! catches is a receiver-side estimate that is wrong beyond doubt: a row
+//! above 1, or a shooter pressed face to face against another solid, which
+//! the receivers' rays see (hits at their ends do not block) while its own
+//! rays all enter that solid. No row ever sums above 1. The vertex values
+//! are point values and are not rescaled.
+//!
 //! Visibility: a BVH over the scene's patches (fan-triangulated); every
 //! patch blocks from both sides. A segment ignores the receiver's and the
 //! shooter's own patch and anything closer than `1e-5 * extent` to either
@@ -54,17 +79,24 @@ use std::f32::consts::PI;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::analytic::point_to_polygon;
+use super::analytic::{bounding_ball, near_element_factor, point_to_polygon};
 use super::receivers::vertex_frames;
-use super::sampling::{grid, Pcg32, Shooter};
+use super::sampling::{grid, Pcg32, Sampler, Shooter};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
 mod occluders;
+mod source;
 #[cfg(test)]
 mod tests;
 
 pub use occluders::Occluders;
+use source::source_share;
+
+/// Rays from each of the 3 x 3 interior points of a near element.
+const INTERIOR_RAYS: usize = 16;
+/// The random stream family of those points (vertices use stream v).
+const NEAR_STREAM: u64 = 0x6e65_6172_0000_0000;
 
 /// How the form factor from a receiver vertex to the shooter is estimated
 /// from its `n` rays (terms `t_k = cos_v cos_i / (pi r_k^2 + A_i/n)`,
@@ -93,6 +125,10 @@ pub enum Estimator {
 pub struct RayTracedFormFactors<'a> {
     /// How a vertex's form factor is estimated from its rays.
     pub estimator: Estimator,
+    /// Whether a row is checked against the shooter's own rays (default
+    /// estimator only; see the module notes). On by default; off only to
+    /// measure what the check does.
+    pub source_check: bool,
     pub scene: &'a Scene,
     pub mesh: &'a Mesh,
     pub occluders: Occluders,
@@ -115,6 +151,7 @@ impl<'a> RayTracedFormFactors<'a> {
         let (vertex_points, vertex_normals, vertex_patches) = vertex_frames(scene, mesh);
         RayTracedFormFactors {
             estimator: Estimator::default(),
+            source_check: true,
             scene,
             mesh,
             occluders: Occluders::new(scene),
@@ -155,18 +192,19 @@ impl<'a> RayTracedFormFactors<'a> {
                 vec![0.0; mesh.vertices.len()],
             );
         }
-        let per_vertex: Vec<f32> = (0..mesh.vertices.len())
+        // (occluded value, unoccluded exact value) per vertex.
+        let per_vertex: Vec<(f32, f32)> = (0..mesh.vertices.len())
             .into_par_iter()
             .map(|v| {
                 let patch = self.vertex_patches[v];
                 if patch == src.patch || patch == u32::MAX {
-                    return 0.0;
+                    return (0.0, 0.0);
                 }
                 let mut rng = Pcg32::new(seed, v as u64);
-                self.point_ff(
-                    self.vertex_points[v],
-                    self.vertex_normals[v],
-                    patch,
+                point_form_factor_parts(
+                    &self.occluders,
+                    self.estimator,
+                    (self.vertex_points[v], self.vertex_normals[v], patch),
                     &src,
                     rays,
                     &mut rng,
@@ -174,20 +212,75 @@ impl<'a> RayTracedFormFactors<'a> {
             })
             .collect();
         let eps = self.occluders.eps;
-        let per_element = mesh
+        let ball = bounding_ball(&src.polygon);
+        let mut per_element: Vec<f32> = mesh
             .elements
             .par_iter()
-            .map(|e| {
+            .enumerate()
+            .map(|(j, e)| {
                 if e.patch == src.patch || src.coplanar(e, eps) {
                     return 0.0;
                 }
                 let corners = e.corners();
-                let mean = corners.iter().map(|&v| per_vertex[v as usize]).sum::<f32>()
+                if self.estimator == Estimator::ExactTimesVisibility {
+                    let element: Vec<_> = corners
+                        .iter()
+                        .map(|&v| mesh.vertices[v as usize].as_dvec3())
+                        .collect();
+                    let near =
+                        near_element_factor(&element, e.normal.as_dvec3(), &src.polygon, ball);
+                    if let Some(exact) = near {
+                        // The element's exact factor times the visible
+                        // share that rays from its corners and from a 3 x 3
+                        // grid inside it found (weighted by the point
+                        // values: a large element can be partly hidden
+                        // from a small shooter while its corners see it).
+                        let (mut seen, mut open) =
+                            corners.iter().fold((0.0f32, 0.0f32), |(s, o), &v| {
+                                let (value, exact) = per_vertex[v as usize];
+                                (s + value, o + exact)
+                            });
+                        let inner: Vec<Vec3> = element.iter().map(|p| p.as_vec3()).collect();
+                        let inner = Sampler::new(&inner);
+                        let mut rng = Pcg32::new(seed ^ NEAR_STREAM, j as u64);
+                        for k in 0..9 {
+                            let (a, b) = ((k / 3) as f32, (k % 3) as f32);
+                            let p = inner.point((a + 0.5) / 3.0, (b + 0.5) / 3.0);
+                            let (value, exact) = point_form_factor_parts(
+                                &self.occluders,
+                                self.estimator,
+                                (p, e.normal, e.patch),
+                                &src,
+                                rays.min(INTERIOR_RAYS),
+                                &mut rng,
+                            );
+                            seen += value;
+                            open += exact;
+                        }
+                        let visible = if open > 0.0 { seen / open } else { 1.0 };
+                        return (exact * f64::from(visible) * f64::from(e.area)
+                            / f64::from(src.area)) as f32;
+                    }
+                }
+                let mean = corners
+                    .iter()
+                    .map(|&v| per_vertex[v as usize].0)
+                    .sum::<f32>()
                     / corners.len() as f32;
                 mean * e.area / src.area
             })
             .collect();
-        (per_element, per_vertex)
+        if self.estimator == Estimator::ExactTimesVisibility && self.source_check {
+            // The row's sum against the shooter's own rays (see the
+            // module notes).
+            let share = source_share(&self.occluders, &src, seed);
+            let sum = per_element.iter().map(|&f| f64::from(f)).sum::<f64>();
+            let k = share.correction(sum) as f32;
+            if k != 1.0 {
+                per_element.iter_mut().for_each(|f| *f *= k);
+            }
+        }
+        (per_element, per_vertex.into_iter().map(|p| p.0).collect())
     }
 
     /// The form factor from a differential area at `p` (unit normal `n`,
@@ -240,20 +333,33 @@ impl<'a> RayTracedFormFactors<'a> {
 pub(crate) fn point_form_factor(
     occluders: &Occluders,
     estimator: Estimator,
-    (p, n, receiver_patch): (Vec3, Vec3, u32),
+    receiver: (Vec3, Vec3, u32),
     src: &Shooter,
     rays: usize,
     rng: &mut Pcg32,
 ) -> f32 {
+    point_form_factor_parts(occluders, estimator, receiver, src, rays, rng).0
+}
+
+/// [`point_form_factor`], and with it the exact unoccluded point form
+/// factor (`ExactTimesVisibility`; for `Wallace`, the same value twice).
+fn point_form_factor_parts(
+    occluders: &Occluders,
+    estimator: Estimator,
+    (p, n, receiver_patch): (Vec3, Vec3, u32),
+    src: &Shooter,
+    rays: usize,
+    rng: &mut Pcg32,
+) -> (f32, f32) {
     // The shooter emits to its front only: nothing reaches a point
     // behind (or in) its plane.
     if (p - src.centre).dot(src.normal) <= 0.0 {
-        return 0.0;
+        return (0.0, 0.0);
     }
     // Nothing either if the whole shooter is behind p's tangent plane.
     let s = &src.sampler;
     if s.corners[..s.count].iter().all(|&c| (c - p).dot(n) <= 0.0) {
-        return 0.0;
+        return (0.0, 0.0);
     }
     let da = src.area / rays as f32;
     let (rows, cols) = grid(rays);
@@ -284,13 +390,13 @@ pub(crate) fn point_form_factor(
         }
     }
     match estimator {
-        Estimator::Wallace => sum * da,
+        Estimator::Wallace => (sum * da, sum * da),
         Estimator::ExactTimesVisibility => {
             if all.is_nan() || all <= 0.0 {
-                return 0.0;
+                return (0.0, 0.0);
             }
             let exact = point_to_polygon(p.as_dvec3(), n.as_dvec3(), &src.polygon) as f32;
-            exact * (sum / all)
+            (exact * (sum / all), exact)
         }
     }
 }

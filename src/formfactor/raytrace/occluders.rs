@@ -124,16 +124,60 @@ impl Occluders {
 impl Occluders {
     /// The first patch that the ray `a + t d`, t > 0, meets: `(t, patch)`.
     pub fn first_hit(&self, a: Vec3, d: Vec3) -> Option<(f32, u32)> {
+        self.first_hit_triangle(a, d, 0.0, u32::MAX)
+            .map(|(t, id)| (t, self.tris[id].patch))
+    }
+
+    /// [`Occluders::first_hit`] beyond `tmin`, ignoring patch `skip`, with
+    /// the triangle's index.
+    fn first_hit_triangle(&self, a: Vec3, d: Vec3, tmin: f32, skip: u32) -> Option<(f32, usize)> {
         let bvh = self.bvh.as_ref()?;
         if !d.is_finite() || d.length_squared() == 0.0 {
             return None;
         }
-        let ray = Ray::new(a.to_array().into(), d.to_array().into(), 0.0, f32::INFINITY);
+        let ray = Ray::new(
+            a.to_array().into(),
+            d.to_array().into(),
+            tmin,
+            f32::INFINITY,
+        );
         let mut hit = RayHit::none();
         let found = bvh.ray_traverse(ray, &mut hit, |ray, id| {
-            hit_distance(&self.tris[id], a, d, 0.0, ray.tmax).unwrap_or(f32::INFINITY)
+            let tri = &self.tris[id];
+            if tri.patch == skip {
+                return f32::INFINITY;
+            }
+            hit_distance(tri, a, d, tmin, ray.tmax).unwrap_or(f32::INFINITY)
         });
-        found.then(|| (hit.t, self.tris[hit.primitive_id as usize].patch))
+        found.then_some((hit.t, hit.primitive_id as usize))
+    }
+
+    /// The first surface the ray `a + t d`, `t > tmin`, meets (patch
+    /// `skip` ignored), and whether it receives there: whether a patch
+    /// meeting the ray at that distance (within a hundredth of
+    /// [`Occluders::epsilon`]) turns its front to the ray. Two patches back
+    /// to back (a thin panel modelled two-sided) are met at the same
+    /// distance, and the one facing the ray is the one that receives,
+    /// whichever the traversal found first.
+    pub fn first_hit_front(&self, a: Vec3, d: Vec3, tmin: f32, skip: u32) -> Option<(f32, bool)> {
+        let (t, id) = self.first_hit_triangle(a, d, tmin, skip)?;
+        let bvh = self.bvh.as_ref()?;
+        let front = |tri: &Tri| tri.e1.cross(tri.e2).dot(d) < 0.0;
+        if front(&self.tris[id]) {
+            return Some((t, true));
+        }
+        let slack = 0.01 * self.eps / d.length();
+        let (t0, t1) = ((t - slack).max(0.0), t + slack);
+        let ray = Ray::new(a.to_array().into(), d.to_array().into(), t0, t1);
+        let facing = !bvh.ray_traverse_miss(ray, |_, id| {
+            let tri = &self.tris[id];
+            if tri.patch != skip && front(tri) && hits(tri, a, d, t0, t1) {
+                t0
+            } else {
+                f32::INFINITY
+            }
+        });
+        Some((t, facing))
     }
 }
 

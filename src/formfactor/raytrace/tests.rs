@@ -1,8 +1,11 @@
 use glam::DVec3;
 
 use super::occluders::{hits, Tri};
+use super::source;
 use super::*;
-use crate::formfactor::analytic::{element_form_factors_analytic, polygon_to_polygon};
+use crate::formfactor::analytic::{
+    element_and_vertex_form_factors_analytic, element_form_factors_analytic, polygon_to_polygon,
+};
 use crate::formfactor::sampling::Sampler;
 use crate::mesh::testutil::scene;
 use crate::mesh::uniform;
@@ -363,11 +366,13 @@ fn cube() -> Scene {
 
 /// Rows of a closed cube sum to 1: exactly in the limit, and for the
 /// vertex-sampled quantity up to its sampling error. That error
-/// shrinks with the mesh for a shooter away from the cube's edges; for
-/// a shooter touching another face it does not (receivers sharing its
-/// edge are as large as it is at every level, and corner averages of a
-/// point form factor that falls steeply away from the edge
-/// underestimate them), so those are only held to 6%.
+/// shrinks with the mesh for a shooter away from the cube's edges. For
+/// a shooter touching another face, corner averages did not converge
+/// (receivers sharing its edge are as large as it is at every level, and
+/// corner averages of a point form factor that falls steeply away from
+/// the edge underestimated them by up to 5%); those receivers are now
+/// integrated (`analytic::near_element_factor`), which holds such rows
+/// to 0.3%.
 #[test]
 fn closed_cube_rows_sum_to_one() {
     let s = cube();
@@ -388,7 +393,7 @@ fn closed_cube_rows_sum_to_one() {
                 assert!(err < 2e-2 && err < previous, "level {level}: {a}");
                 previous = err;
             } else {
-                assert!((a - 1.0).abs() < 6e-2, "level {level}, {shooter}: {a}");
+                assert!((a - 1.0).abs() < 3e-3, "level {level}, {shooter}: {a}");
             }
             let f = rt.from_shooter(shooter, 16, 5);
             let own = mesh.elements[shooter].patch as usize;
@@ -396,8 +401,12 @@ fn closed_cube_rows_sum_to_one() {
             assert!(f[r.start as usize..r.end as usize]
                 .iter()
                 .all(|&x| x == 0.0));
-            // Nothing blocks inside the cube: exactly the analytic values.
+            // Nothing blocks inside the cube: exactly the analytic values,
+            // scaled down to 1 where their row is above 1 (the range the
+            // shooter's own rays allow here is [1024 / 1033, 1]).
+            let k = if a > 1.0 { (1.0 / a) as f32 } else { 1.0 };
             for (&t, &e) in f.iter().zip(&exact) {
+                let e = e * k;
                 assert!((t - e).abs() <= 1e-5 * e.max(1e-3), "{t} vs {e}");
             }
         }
@@ -411,13 +420,19 @@ fn traced_matches_analytic_without_occluders_and_is_deterministic() {
     let mesh = uniform(&s, 1.0 / 4.0);
     let rt = RayTracedFormFactors::new(&s, &mesh).with_estimator(Estimator::Wallace);
     let shooter = 5;
-    let exact = element_form_factors_analytic(&s, &mesh, shooter);
-    let f = rt.from_shooter(shooter, 1024, 9);
+    // Wallace's estimator at the vertices against the exact point values
+    // (the elements' values differ by design: the analytic method
+    // integrates elements near the shooter, Wallace's averages corners).
+    let (exact, exact_vertices) = element_and_vertex_form_factors_analytic(&s, &mesh, shooter);
+    let (f, vertices) = rt.from_shooter_with_vertices(shooter, 1024, 9);
     assert_eq!(f, rt.from_shooter(shooter, 1024, 9));
     assert_ne!(f, rt.from_shooter(shooter, 1024, 10));
-    let mut worst = 0.0f32;
     for (j, (&a, &b)) in f.iter().zip(&exact).enumerate() {
         assert_eq!(a == 0.0, b == 0.0, "element {j}: {a} vs {b}");
+    }
+    let mut worst = 0.0f32;
+    for (v, (&a, &b)) in vertices.iter().zip(&exact_vertices).enumerate() {
+        assert_eq!(a == 0.0, b == 0.0, "vertex {v}: {a} vs {b}");
         if b > 0.0 {
             worst = worst.max((a - b).abs() / b);
         }
@@ -458,4 +473,102 @@ fn cornell_shot_from_the_light() {
     // The open front lets some light out; the blocks shadow the floor.
     assert!(t > 0.5 && t < a && a < 1.0, "traced {t}, unoccluded {a}");
     assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0));
+}
+
+/// Small shooters beside large receivers: a floor meshed at 1/64 in a
+/// cube whose walls are one element each. A wall's corner next to a floor
+/// element sees it at up to 1/4; the mean of the wall's corners times
+/// A_wall / A_shooter gave rows summing to 766 (a discontinuity sliver's
+/// row summed to 45). Integrated over the near walls, every row is within
+/// its integration tolerance of 1, and no more than 1 + 2e-3.
+#[test]
+fn small_shooters_beside_large_receivers_keep_rows_at_most_one() {
+    let s = cube();
+    let mut edges = vec![1.0 / 64.0];
+    edges.extend([10.0f32; 5]);
+    let mesh = mesh_per_patch(&s, &edges);
+    assert_eq!(mesh.elements.len(), 64 * 64 + 5);
+    let rt = RayTracedFormFactors::new(&s, &mesh);
+    let floor = mesh.patch_elements[0].clone();
+    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+    // Every 7th floor element, the corner and the edge ones among them.
+    for i in floor
+        .clone()
+        .step_by(7)
+        .chain([0, 63, 64 * 63, 64 * 64 - 1])
+    {
+        let f = rt.from_shooter(i as usize, 16, 1);
+        let sum: f64 = f.iter().map(|&x| f64::from(x)).sum();
+        lo = lo.min(sum);
+        hi = hi.max(sum);
+    }
+    assert!(
+        hi <= 1.0 + 2e-3 && lo >= 1.0 - 5e-3,
+        "rows between {lo} and {hi}"
+    );
+    // Wallace's estimator, kept as published, still averages corners.
+    let wallace = rt.clone().with_estimator(Estimator::Wallace);
+    let sum: f32 = wallace.from_shooter(0, 16, 1).iter().sum();
+    assert!(sum > 10.0, "{sum}");
+}
+
+/// The shooter's own rays: in a closed cube no ray escapes, and only rows
+/// below n / (n + 9) or above 1 are corrected; under an opposed square the
+/// range holds the exact form factor; alone, nothing is hit and the range
+/// is wide enough to leave a small row alone.
+#[test]
+fn source_share_matches_closed_forms() {
+    let s = cube();
+    let mesh = uniform(&s, 0.25);
+    let occ = Occluders::new(&s);
+    let n = source::SOURCE_RAYS as f64;
+    for shooter in [0, 5, 40, 95] {
+        let src = Shooter::new(&mesh, &mesh.elements[shooter]);
+        let share = source::source_share(&occ, &src, 3);
+        assert_eq!(share.share(), 1.0);
+        let (lo, hi) = share.range();
+        assert!((lo - n / (n + 9.0)).abs() < 1e-12 && hi == 1.0, "{lo} {hi}");
+        assert_eq!(share.correction(0.995), 1.0);
+        assert_eq!(share.correction(1.02), 1.0 / 1.02);
+        assert!((share.correction(0.9) * 0.9 - lo).abs() < 1e-12);
+    }
+    // A two-sided panel inside (two patches back to back): whichever of
+    // the two a ray meets first, the one facing it receives.
+    let mut faces: Vec<Vec<Vec3>> = s.patches.iter().map(|p| p.vertices.clone()).collect();
+    let up = vec![
+        Vec3::new(0.3, 0.3, 0.5),
+        Vec3::new(0.7, 0.3, 0.5),
+        Vec3::new(0.7, 0.7, 0.5),
+        Vec3::new(0.3, 0.7, 0.5),
+    ];
+    faces.push(up.iter().rev().copied().collect());
+    faces.push(up);
+    let refs: Vec<&[Vec3]> = faces.iter().map(|f| f.as_slice()).collect();
+    let boxed = scene(&refs);
+    let mesh = uniform(&boxed, 0.25);
+    let occ = Occluders::new(&boxed);
+    for shooter in [0, 5, 40, 95] {
+        let src = Shooter::new(&mesh, &mesh.elements[shooter]);
+        assert_eq!(source::source_share(&occ, &src, 3).share(), 1.0);
+    }
+    let s = scene(&[&unit_ceiling(), &unit_floor()]);
+    let mesh = mesh_per_patch(&s, &[10.0, 10.0]);
+    let occ = Occluders::new(&s);
+    let src = Shooter::new(&mesh, &mesh.elements[1]);
+    let share = source::source_share(&occ, &src, 3);
+    let exact = 0.199_824_896;
+    let (lo, hi) = share.range();
+    assert!(
+        lo < exact && exact < hi && hi < 0.25,
+        "{share:?}: {lo} {hi}"
+    );
+    assert_eq!(share.correction(exact), 1.0);
+    let alone = scene(&[&unit_floor()]);
+    let mesh = uniform(&alone, 1.0);
+    let occ = Occluders::new(&alone);
+    let src = Shooter::new(&mesh, &mesh.elements[0]);
+    let share = source::source_share(&occ, &src, 3);
+    assert_eq!(share.hits, 0);
+    assert!(share.range().1 > 0.008);
+    assert_eq!(share.correction(0.003), 1.0);
 }
