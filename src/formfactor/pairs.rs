@@ -25,7 +25,7 @@
 //! adaptive rule then refines where the integrand varies: along shadow
 //! edges as well as in the near field. Its error estimate includes the
 //! rays' noise (a sum of absolute differences, not a root sum of squares:
-//! measured on the Cornell box, 2 to 20 times the true error).
+//! measured on the Cornell box, 5 to 30 times the true error).
 //!
 //! Either way one integral gives both directions: the smaller patch is
 //! integrated (its integrand is the smoother one; a small patch close over
@@ -312,8 +312,6 @@ fn hull_meets(hull: &[DVec3], poly: &[DVec3], n: DVec3, touch: f64) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use std::f64::consts::PI;
-
     use glam::Vec3;
 
     use super::*;

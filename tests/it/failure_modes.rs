@@ -667,7 +667,7 @@ fn few_rays_noise_behind_a_partial_blocker() {
     assert!(rel(hemi[2].1, exact) < 0.01, "{hemi:?}");
 }
 
-/// 5. Small shooters beside large receivers. The discontinuity mesher
+/// Section 5, small shooters beside large receivers: the discontinuity mesher
 /// leaves slivers along shadow and contact lines, and without subdivision
 /// (the thesis's mesh) beside receivers of other patches that are one
 /// large element. A corner of such a receiver next to a sliver shooter

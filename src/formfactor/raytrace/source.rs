@@ -46,7 +46,7 @@ impl SourceShare {
     /// (1 when it is inside, or when the row is empty).
     pub(crate) fn correction(&self, sum: f64) -> f64 {
         let (lo, hi) = self.range();
-        if !(sum > 0.0) {
+        if sum.is_nan() || sum <= 0.0 {
             1.0
         } else if sum > hi {
             hi / sum
