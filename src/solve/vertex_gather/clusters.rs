@@ -11,7 +11,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
-use super::Source;
+use super::{is_even, Source};
 use crate::formfactor::raytrace::Occluders;
 use crate::solve::hierarchy::ShooterTree;
 
@@ -153,7 +153,7 @@ impl Cluster {
         !self.emits
             && self.children.is_some()
             && self.radius <= CLUSTER_OPENING * p.distance(self.centre)
-            && (self.hi <= uniformity * self.lo || self.hi <= 0.0)
+            && is_even(self.lo, self.hi, uniformity)
     }
 
     /// Whether nothing in it can reach the receiver (all behind its

@@ -80,8 +80,6 @@ struct Source {
     radiosity: Vec3,
     normal: Vec3,
     patch: u32,
-    /// Whether its elements' radiosity is within the uniformity factor.
-    even: bool,
     /// Its area over its patch's.
     share_of_patch: f32,
     /// Range of its elements' radiosity levels (sum of rgb, exposed ones).
@@ -120,14 +118,7 @@ pub fn gather_vertices(
             _ => [0.0; 3],
         })
         .collect();
-    let first = sources(
-        scene,
-        solved,
-        tree,
-        &undiluted,
-        &exposed,
-        settings.uniformity,
-    );
+    let first = sources(scene, solved, tree, &undiluted, &exposed);
     let roots: Vec<u32> = (0..tree.nodes.len() as u32)
         .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
         .collect();
@@ -156,14 +147,7 @@ pub fn gather_vertices(
                 *b = [0.0; 3];
             }
         }
-        gather.sources = sources(
-            scene,
-            solved,
-            tree,
-            &corrected,
-            &exposed,
-            settings.uniformity,
-        );
+        gather.sources = sources(scene, solved, tree, &corrected, &exposed);
         gather.clusters.relight(&gather.sources);
     }
     // One gather per smooth group: vertices at one place on patches that
@@ -250,14 +234,15 @@ impl Gather<'_> {
                 continue;
             }
             let src = &self.sources[n as usize];
-            if !src.emits && src.radiosity.max_element() <= 0.0 && src.even {
+            let even = is_even(src.lo, src.hi, settings.uniformity);
+            if !src.emits && src.radiosity.max_element() <= 0.0 && even {
                 continue;
             }
             if !at.faces(node.centre, node.normal, &node.polygon) {
                 continue;
             }
             let far = node.radius <= settings.opening * at.p.distance(node.centre);
-            let take_whole = node.children.is_empty() || (far && src.even);
+            let take_whole = node.children.is_empty() || (far && even);
             if !take_whole {
                 stack.extend_from_slice(&node.children);
                 continue;
@@ -270,6 +255,12 @@ impl Gather<'_> {
     }
 }
 
+/// Whether light whose levels range over `lo..=hi` is even: the brightest
+/// within `uniformity` of the dimmest (or all dark).
+fn is_even(lo: f32, hi: f32, uniformity: f32) -> bool {
+    hi <= uniformity * lo || hi <= 0.0
+}
+
 /// Per-node sources, built bottom-up from the elements.
 fn sources(
     scene: &Scene,
@@ -277,7 +268,6 @@ fn sources(
     tree: &ShooterTree,
     radiosity: &[[f32; 3]],
     exposed: &[ExposedPart],
-    uniformity: f32,
 ) -> Vec<Source> {
     // Parents come before their children in the tree.
     let mut patch_area = vec![0.0f32; tree.nodes.len()];
@@ -327,7 +317,6 @@ fn sources(
                 radiosity: if area > 0.0 { sum / area } else { Vec3::ZERO },
                 normal: node.normal,
                 patch: node.patch,
-                even: hi <= uniformity * lo || hi <= 0.0,
                 share_of_patch: node.area / patch_area[n].max(f32::MIN_POSITIVE),
                 lo,
                 hi,
