@@ -4,8 +4,9 @@
 //! as a fine mesh's interpolation smooths them, so the reference favours no
 //! mesher.
 //!
-//! The samples match [`crate::render::render_image`]: 2x2 per pixel at the
-//! supersampled image's pixel centres, box-filtered; back faces are black.
+//! The samples match [`crate::render::render_image`]: the same
+//! [`crate::render::pixel_samples`] in every pixel, box-filtered; back
+//! faces are black.
 //!
 //! Along with the image comes a mask of the pixels that measure shading:
 //! the samples and the pixel's four corners all on the front of one
@@ -19,7 +20,7 @@ use rayon::prelude::*;
 use crate::error::Result;
 use crate::formfactor::gather::Gatherer;
 use crate::output::image_io::HdrImage;
-use crate::render::{camera_view_proj, SUPERSAMPLE};
+use crate::render::{camera_view_proj, pixel_samples, SAMPLES_PER_PIXEL};
 use crate::scene::{Camera, Scene};
 
 /// A gathered image and which of its pixels measure shading.
@@ -39,27 +40,23 @@ pub fn gathered_image(
 ) -> Result<GatheredImage> {
     let view_proj = camera_view_proj(camera, width as f32 / height as f32, scene.extent())?;
     let unproject = view_proj.inverse();
-    let (sw, sh) = (width * SUPERSAMPLE, height * SUPERSAMPLE);
+    let offsets = pixel_samples(SAMPLES_PER_PIXEL);
     let samples: Vec<([f32; 3], bool)> = (0..width * height)
         .into_par_iter()
         .map(|k| {
             let (x, y) = (k % width, k / width);
             let mut sum = Vec3::ZERO;
-            let mut patches = Vec::with_capacity(8);
-            for dy in 0..SUPERSAMPLE {
-                for dx in 0..SUPERSAMPLE {
-                    let sx = x * SUPERSAMPLE + dx;
-                    let sy = y * SUPERSAMPLE + dy;
-                    let ndc = (
-                        (sx as f32 + 0.5) / sw as f32 * 2.0 - 1.0,
-                        (sy as f32 + 0.5) / sh as f32 * 2.0 - 1.0,
-                    );
-                    let sample_seed = seed ^ (u64::from(sy) << 32 | u64::from(sx));
-                    let (radiance, patch) =
-                        radiance_along(scene, gatherer, camera.eye, unproject, ndc, sample_seed);
-                    sum += radiance;
-                    patches.push(patch);
-                }
+            let mut patches = Vec::with_capacity(offsets.len() + 4);
+            for (i, &(ox, oy)) in offsets.iter().enumerate() {
+                let ndc = (
+                    (x as f32 + ox) / width as f32 * 2.0 - 1.0,
+                    (y as f32 + oy) / height as f32 * 2.0 - 1.0,
+                );
+                let sample_seed = seed ^ (u64::from(k) << 32 | i as u64);
+                let (radiance, patch) =
+                    radiance_along(scene, gatherer, camera.eye, unproject, ndc, sample_seed);
+                sum += radiance;
+                patches.push(patch);
             }
             // The pixel's corners: a sample just inside an outline counts
             // as covered by the rays but maybe not by the rasterizer.
@@ -78,10 +75,7 @@ pub fn gathered_image(
                 }
                 None => false,
             };
-            (
-                (sum / (SUPERSAMPLE * SUPERSAMPLE) as f32).to_array(),
-                shading,
-            )
+            ((sum / offsets.len() as f32).to_array(), shading)
         })
         .collect();
     Ok(GatheredImage {

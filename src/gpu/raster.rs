@@ -26,22 +26,25 @@ pub struct LitVertex {
 const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-/// Renders `triangles` (three vertices each) with `view_proj` into a
-/// `width` x `height` linear-radiance image (rgba, top row first), then
-/// `lines` (two vertices each; empty for none) over it.
+/// Renders `triangles` (three vertices each) into a `width` x `height`
+/// linear-radiance image (rgba, top row first), then `lines` (two vertices
+/// each; empty for none) over it, once per matrix of `view_projs` (one
+/// pass each, e.g. sub-pixel jitters of one camera). Returns the passes'
+/// images one after the other.
 #[allow(clippy::too_many_arguments)]
 pub fn render_lit_mesh(
     device: &Arc<Device>,
     triangles: &[LitVertex],
     lines: &[LitVertex],
-    view_proj: glam::Mat4,
+    view_projs: &[glam::Mat4],
     width: u32,
     height: u32,
     times: &mut StageTimes,
 ) -> Result<Vec<[f32; 4]>> {
     let extent = vk::Extent2D { width, height };
     let pixels = width as u64 * height as u64;
-    let (color, depth, readback) = targets(device, extent)?;
+    let passes = view_projs.len() as u64;
+    let (color, depth, readback) = targets(device, extent, passes)?;
     let vertices = upload(
         device,
         "lit mesh vertices",
@@ -97,57 +100,70 @@ pub fn render_lit_mesh(
     }
     to_attachment_layouts(device, cmd, &color, &depth);
     let raw = &device.raw;
-    // SAFETY: cmd is recording; all handles live until after the fence wait.
-    unsafe {
-        begin_rendering(
+    for (pass, view_proj) in view_projs.iter().enumerate() {
+        if pass > 0 {
+            back_to_attachment(device, cmd, &color);
+        }
+        // SAFETY: cmd is recording; all handles live until after the fence wait.
+        unsafe {
+            begin_rendering(
+                device,
+                cmd,
+                extent,
+                (
+                    color.view(),
+                    vk::ClearColorValue {
+                        float32: [0.0, 0.0, 0.0, 1.0],
+                    },
+                ),
+                depth.view(),
+                false,
+            );
+            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+            set_viewport(device, cmd, (0, 0, width, height));
+            raw.cmd_push_constants(
+                cmd,
+                bindings.layout,
+                vk::ShaderStageFlags::ALL,
+                0,
+                bytemuck::bytes_of(&view_proj.to_cols_array()),
+            );
+            raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
+            raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
+            if let Some((line_pipeline, line_vertices)) = &line_pass {
+                raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
+                raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
+                raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
+            }
+            raw.cmd_end_rendering(cmd);
+        }
+        record_readback(
             device,
             cmd,
+            &color,
+            &readback,
             extent,
-            (
-                color.view(),
-                vk::ClearColorValue {
-                    float32: [0.0, 0.0, 0.0, 1.0],
-                },
-            ),
-            depth.view(),
-            false,
+            pass as u64 * pixels * 16,
         );
-        raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
-        set_viewport(device, cmd, (0, 0, width, height));
-        raw.cmd_push_constants(
-            cmd,
-            bindings.layout,
-            vk::ShaderStageFlags::ALL,
-            0,
-            bytemuck::bytes_of(&view_proj.to_cols_array()),
-        );
-        raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
-        raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
-        if let Some((line_pipeline, line_vertices)) = &line_pass {
-            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
-            raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
-            raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
-        }
-        raw.cmd_end_rendering(cmd);
     }
     if let Some(p) = profiler.as_mut() {
         p.stamp(cmd, "final render");
-    }
-    record_readback(device, cmd, &color, &readback, extent);
-    if let Some(p) = profiler.as_mut() {
-        p.stamp(cmd, "final readback");
     }
     cmds.end()?;
     cmds.submit_and_wait()?;
     if let Some(p) = &profiler {
         p.collect(times)?;
     }
-    readback.read(pixels as usize)
+    readback.read((passes * pixels) as usize)
 }
 
 /// The colour and depth attachments of the final image, and the buffer the
 /// colour is read back through.
-fn targets(device: &Arc<Device>, extent: vk::Extent2D) -> Result<(Image, Image, Buffer)> {
+fn targets(
+    device: &Arc<Device>,
+    extent: vk::Extent2D,
+    passes: u64,
+) -> Result<(Image, Image, Buffer)> {
     let color = Image::new(
         device,
         "final image",
@@ -168,7 +184,7 @@ fn targets(device: &Arc<Device>, extent: vk::Extent2D) -> Result<(Image, Image, 
     let readback = Buffer::new(
         device,
         "final image readback",
-        16 * pixels,
+        16 * pixels * passes,
         vk::BufferUsageFlags::TRANSFER_DST,
         MemoryLocation::GpuToCpu,
     )?;
@@ -217,13 +233,41 @@ fn to_attachment_layouts(device: &Device, cmd: vk::CommandBuffer, color: &Image,
     );
 }
 
-/// Colour attachment -> the readback buffer, ready for the host.
+/// A pass's image, read back -> colour attachment for the next pass (its
+/// old content is not kept: the next pass clears it).
+fn back_to_attachment(device: &Device, cmd: vk::CommandBuffer, color: &Image) {
+    barriers(
+        device,
+        cmd,
+        &[],
+        &[image_barrier(
+            color.raw(),
+            vk::ImageAspectFlags::COLOR,
+            (
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            ),
+            (
+                vk::PipelineStageFlags2::COPY,
+                vk::AccessFlags2::TRANSFER_READ,
+            ),
+            (
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ),
+        )],
+    );
+}
+
+/// Colour attachment -> the readback buffer at byte `offset`, ready for the
+/// host.
 fn record_readback(
     device: &Device,
     cmd: vk::CommandBuffer,
     color: &Image,
     readback: &Buffer,
     extent: vk::Extent2D,
+    offset: u64,
 ) {
     let raw = &device.raw;
     barriers(
@@ -249,6 +293,7 @@ fn record_readback(
         )],
     );
     let region = vk::BufferImageCopy::default()
+        .buffer_offset(offset)
         .image_subresource(vk::ImageSubresourceLayers {
             aspect_mask: vk::ImageAspectFlags::COLOR,
             mip_level: 0,
@@ -260,7 +305,8 @@ fn record_readback(
             height: extent.height,
             depth: 1,
         });
-    // SAFETY: the readback buffer holds width * height rgba32f texels.
+    // SAFETY: the readback buffer holds width * height rgba32f texels past
+    // `offset`.
     unsafe {
         raw.cmd_copy_image_to_buffer(
             cmd,
