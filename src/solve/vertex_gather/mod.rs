@@ -44,8 +44,8 @@ use crate::scene::Scene;
 pub struct VertexGather {
     /// Rays from a vertex to a whole emitting node.
     pub emitter_rays: usize,
-    /// Most rays to a reflecting node (one per 1/64 of form factor, at
-    /// least one).
+    /// Most rays to a reflecting node (one per 1/128 of form factor, at
+    /// least [`MIN_REFLECTOR_RAYS`]).
     pub reflector_rays: usize,
     /// A node is taken whole when its radius is at most this times its
     /// distance from the vertex.
@@ -65,10 +65,16 @@ impl Default for VertexGather {
             reflector_rays: 16,
             opening: 0.5,
             uniformity: 1.5,
-            source_passes: 6,
+            source_passes: 8,
         }
     }
 }
+
+/// Fewest rays to a reflecting node. One ray's visible share is 0 or 1,
+/// and the share it estimates is of the node's area, not of its form
+/// factor (the kernel weights cancel): biased beside blockers. Two cut the
+/// Cornell box's mean bias against a path tracer from -0.44% to -0.30%.
+const MIN_REFLECTOR_RAYS: usize = 2;
 
 /// A node as a light source: its polygon, mean radiosity and evenness.
 struct Source {
@@ -363,8 +369,37 @@ impl Receiver {
             ((settings.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
                 .clamp(16, settings.emitter_rays)
         } else {
-            ((exact * 64.0).ceil() as usize).clamp(1, settings.reflector_rays)
+            ((exact * 128.0).ceil() as usize).clamp(MIN_REFLECTOR_RAYS, settings.reflector_rays)
         };
+        // A light wholly seen or wholly hidden by a first, coarse set of
+        // rays is taken as such: only penumbrae pay for the full count.
+        const FIRST_RAYS: usize = 16;
+        if src.emits && rays > 2 * FIRST_RAYS {
+            let (seen, all) = self.visible_weight(FIRST_RAYS, src, &sample, occluders, rng);
+            if all <= 0.0 {
+                return 0.0;
+            }
+            if seen <= 0.0 || seen >= all {
+                return exact * (seen / all);
+            }
+        }
+        let (seen, all) = self.visible_weight(rays, src, &sample, occluders, rng);
+        if all <= 0.0 {
+            return 0.0;
+        }
+        exact * (seen / all)
+    }
+
+    /// Kernel-weighted visible and total weight of `rays` stratified rays
+    /// to points of `src`.
+    fn visible_weight(
+        &self,
+        rays: usize,
+        src: &Source,
+        sample: &impl Fn(f32, f32) -> Vec3,
+        occluders: &Occluders,
+        rng: &mut Pcg32,
+    ) -> (f32, f32) {
         let (rows, cols) = grid(rays);
         let (mut all, mut seen) = (0.0f32, 0.0f32);
         for r in 0..rows {
@@ -388,10 +423,7 @@ impl Receiver {
                 }
             }
         }
-        if all <= 0.0 {
-            return 0.0;
-        }
-        exact * (seen / all)
+        (seen, all)
     }
 }
 
