@@ -20,7 +20,8 @@ use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::solution::add_ambient;
-use crate::solve::vertex_gather::{gather_vertices, VertexGather};
+use crate::solve::vertex_gather::refine::{split_points, Checked, DisplayRefinement};
+use crate::solve::vertex_gather::{FinalGather, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
 
 /// Everything `vkrad SCENE` can be asked to do.
@@ -57,6 +58,10 @@ pub struct Job {
     /// discontinuity mesher: shadow and contact boundaries become mesh
     /// edges, so the image does not smear them.
     pub display_mesher: Option<Mesher>,
+    /// With a discontinuity display mesh: passes that split its elements
+    /// where the value gathered at their centroid is off the Gouraud one
+    /// (penumbrae, skinny elements between shadow lines).
+    pub display_refinements: usize,
     /// A-posteriori refinement passes (discontinuity mesher only): split
     /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
     /// over `tolerance` x the mean radiosity, worst first and within
@@ -88,6 +93,7 @@ impl Job {
             final_gather: Some(VertexGather::default()),
             display_edge: None,
             display_mesher: Some(Mesher::Discontinuity { subdivide: true }),
+            display_refinements: DISPLAY_REFINEMENTS,
             adaptive: 0,
             tolerance: 0.02,
             max_elements: None,
@@ -276,18 +282,21 @@ impl Report {
 /// on the 23,802-patch `rfield` it takes longer than the solve.
 pub const DISPLAY_DISCONTINUITY_MAX_PATCHES: usize = 5000;
 
+/// Default refinement passes of a discontinuity display mesh.
+pub const DISPLAY_REFINEMENTS: usize = 2;
+
 /// The finer mesh the final gather shades: the display mesher at the
 /// display edge, unless both are the solve's (a coarser mesh for the
 /// display is never built). A discontinuity display mesh that cannot be
 /// built (too many patches, or a mesh that fails its check) falls back to
 /// a uniform one, with a warning.
-fn display_mesh(
+fn display_mesh<'a>(
     job: &Job,
-    scene: &Scene,
-    device: &Arc<Device>,
-    builder: &mut MeshBuilder,
+    scene: &'a Scene,
+    device: &'a Arc<Device>,
+    builder: &mut MeshBuilder<'a>,
     warnings: &mut Vec<String>,
-) -> Result<Option<Mesh>> {
+) -> Result<Option<DisplayMesh<'a>>> {
     let solved = *builder.settings();
     // Half the scene's default edge: finer than a default solve, and no
     // finer than a solve the user made finer (its cost grows with the
@@ -310,31 +319,131 @@ fn display_mesh(
     if mesher == solved.mesher && edge >= solved.max_edge {
         return Ok(None);
     }
-    let build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<Mesh> {
-        let display = if mesher == solved.mesher {
-            builder.build_finer(edge)?.0
-        } else {
-            let settings = MeshSettings {
-                mesher,
-                max_edge: edge,
-                ..solved
-            };
-            MeshBuilder::new(device, scene, settings)?.build(&[])?.0
-        };
-        if job.check_mesh {
-            check_mesh(&display, scene, mesher)?;
-        }
-        Ok(display)
+    let own = (mesher != solved.mesher)
+        .then(|| {
+            MeshBuilder::new(
+                device,
+                scene,
+                MeshSettings {
+                    mesher,
+                    max_edge: edge,
+                    ..solved
+                },
+            )
+        })
+        .transpose()?;
+    let mut display = DisplayMesh {
+        mesh: Mesh::default(),
+        mesher,
+        edge,
+        own,
+        check: job.check_mesh,
     };
-    match build(mesher, builder) {
+    match display.build(scene, builder, &[]) {
+        Ok(mesh) => display.mesh = mesh,
         Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
             warnings.push(format!(
                 "the discontinuity display mesh failed its check ({why}); the image shows a uniform mesh"
             ));
-            build(Mesher::Uniform, builder).map(Some)
+            display.mesher = Mesher::Uniform;
+            display.own = Some(MeshBuilder::new(
+                device,
+                scene,
+                MeshSettings {
+                    mesher: Mesher::Uniform,
+                    max_edge: edge,
+                    ..solved
+                },
+            )?);
+            display.mesh = display.build(scene, builder, &[])?;
         }
-        other => other.map(Some),
+        Err(e) => return Err(e),
     }
+    Ok(Some(display))
+}
+
+/// The display mesh and how to build it again with points inserted.
+struct DisplayMesh<'a> {
+    mesh: Mesh,
+    mesher: Mesher,
+    edge: f32,
+    /// Its own builder when its mesher is not the solve's.
+    own: Option<MeshBuilder<'a>>,
+    check: bool,
+}
+
+impl DisplayMesh<'_> {
+    fn build(
+        &mut self,
+        scene: &Scene,
+        solve_builder: &mut MeshBuilder,
+        extra_points: &[(u32, Vec3)],
+    ) -> Result<Mesh> {
+        let mesh = match &mut self.own {
+            Some(own) => own.build(extra_points)?.0,
+            None => solve_builder.build_finer(self.edge, extra_points)?.0,
+        };
+        if self.check {
+            check_mesh(&mesh, scene, self.mesher)?;
+        }
+        Ok(mesh)
+    }
+}
+
+/// Gathers the display mesh's vertices, then refines it where
+/// [`split_points`] finds the Gouraud image wrong (discontinuity display
+/// meshes only: they take inserted points) and gathers the new vertices.
+/// A refined mesh that fails its check is dropped with a warning.
+fn gather_display(
+    scene: &Scene,
+    gather: &FinalGather,
+    display: &mut DisplayMesh,
+    solve_builder: &mut MeshBuilder,
+    passes: usize,
+    warnings: &mut Vec<String>,
+) -> Vec<[f32; 3]> {
+    let refinement = DisplayRefinement {
+        passes,
+        suspect: 0.25,
+        tolerance: 0.05,
+        floor: 0.05,
+        // Penumbrae are resolved to an eighth of the display edge.
+        min_edge: display.edge / 8.0,
+    };
+    let mut cache = VertexCache::default();
+    let mut values = gather.at_vertices(&display.mesh, &mut cache);
+    if display.mesher == Mesher::Uniform {
+        return values;
+    }
+    let mut points = Vec::new();
+    let mut checked = Checked::default();
+    for _ in 0..refinement.passes {
+        let new = split_points(
+            scene,
+            &display.mesh,
+            &values,
+            gather,
+            &refinement,
+            &mut checked,
+        );
+        if new.is_empty() {
+            break;
+        }
+        points.extend(new);
+        match display.build(scene, solve_builder, &points) {
+            Ok(mesh) => {
+                display.mesh = mesh;
+                values = gather.at_vertices(&display.mesh, &mut cache);
+            }
+            Err(e) => {
+                warnings.push(format!(
+                    "the refined display mesh could not be built ({e}); the image shows the unrefined one"
+                ));
+                break;
+            }
+        }
+    }
+    values
 }
 
 /// Writes `report` (JSON) atomically.
@@ -482,13 +591,13 @@ pub fn run_scene(
     // converged to a tolerance), the ambient term stands in for it.
     let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&scene, &mesh));
     let t = Instant::now();
-    let display_mesh = match &job.final_gather {
+    let mut display = match &job.final_gather {
         Some(_) if job.adaptive == 0 => {
             display_mesh(job, &scene, &device, &mut builder, &mut warnings)?
         }
         _ => None,
     };
-    if display_mesh.is_some() {
+    if display.is_some() {
         wall.push(("display mesh", t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();
@@ -504,8 +613,18 @@ pub fn run_scene(
                 }
             }
             let tree = ShooterTree::new(&scene, &mesh);
-            let display = display_mesh.as_ref().unwrap_or(&mesh);
-            gather_vertices(&scene, &mesh, &tree, &sources, display, settings)
+            let gather = FinalGather::new(&scene, &mesh, &tree, &sources, settings);
+            match display.as_mut() {
+                Some(display) => gather_display(
+                    &scene,
+                    &gather,
+                    display,
+                    &mut builder,
+                    job.display_refinements,
+                    &mut warnings,
+                ),
+                None => gather.at_vertices(&mesh, &mut VertexCache::default()),
+            }
         }
         None => {
             let mut shown = solution.vertex_radiosity(&mesh);
@@ -518,6 +637,7 @@ pub fn run_scene(
     if job.final_gather.is_some() {
         wall.push(("gather", t.elapsed().as_secs_f64()));
     }
+    let display_mesh = display.map(|d| d.mesh);
     let t = Instant::now();
     let radiance = crate::render::radiance_of(shown.clone());
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);

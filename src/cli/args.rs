@@ -245,6 +245,12 @@ pub(crate) struct RenderArgs {
     /// boundaries into it, so the image shows them sharp.
     #[arg(long, value_enum, value_name = "MESHER", default_value_t = MesherArg::Discontinuity)]
     pub(crate) display_mesh: MesherArg,
+    /// Passes that split discontinuity display elements where the value
+    /// gathered at their centroid is off the Gouraud one by over 5% of the
+    /// local level (penumbrae, skinny elements between shadow lines);
+    /// 0 turns refinement off.
+    #[arg(long, default_value_t = vkrad::app::DISPLAY_REFINEMENTS, value_name = "N")]
+    pub(crate) display_refinements: usize,
     /// Draw the mesh edges over the image (black lines).
     #[arg(long)]
     pub(crate) wireframe: bool,

@@ -61,6 +61,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     });
     job.display_edge = args.display_edge;
     job.display_mesher = Some(args.display_mesh.mesher(true));
+    job.display_refinements = args.display_refinements;
     job.adaptive = args.adaptive;
     job.tolerance = args.tolerance;
     job.max_elements = args.max_elements;

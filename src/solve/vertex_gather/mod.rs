@@ -25,6 +25,8 @@
 
 use std::f32::consts::PI;
 
+use std::collections::HashMap;
+
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -110,67 +112,127 @@ pub fn gather_vertices(
     display: &Mesh,
     settings: &VertexGather,
 ) -> Vec<[f32; 3]> {
-    assert_eq!(radiosity.len(), solved.elements.len());
-    let occluders = Occluders::new(scene);
-    // A solved element partly under a box has its light spread over its
-    // whole area, the covered part included: the part that shows is
-    // brighter than that mean by 1 / (exposed share).
-    let exposed = exposed_parts(scene, solved, &occluders);
-    let undiluted: Vec<[f32; 3]> = radiosity
-        .iter()
-        .zip(&exposed)
-        .map(|(b, part)| match part.share {
-            s if s > 0.0 => (Vec3::from(*b) / s).to_array(),
-            _ => [0.0; 3],
-        })
-        .collect();
-    let first = sources(scene, solved, tree, &undiluted, &exposed);
-    let roots: Vec<u32> = (0..tree.nodes.len() as u32)
-        .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
-        .collect();
-    let mut gather = Gather {
-        scene,
-        tree,
-        clusters: Clusters::new(tree, &roots, &first),
-        sources: first,
-        occluders,
-        settings: *settings,
-    };
-    // Each pass at the elements (the centre of their exposed part) is a
-    // Jacobi step with exact form factors: it corrects the solve's element
-    // values (biased where its form factors are, on coarse elements) by
-    // the share rho that comes back.
-    for _ in 0..settings.source_passes {
-        let frames: Vec<Frame> = solved
-            .elements
+    FinalGather::new(scene, solved, tree, radiosity, settings)
+        .at_vertices(display, &mut VertexCache::default())
+}
+
+/// Gathered values kept by place, so that a refined display mesh gathers
+/// only its new vertices.
+#[derive(Default)]
+pub struct VertexCache {
+    values: HashMap<(u32, [i64; 3]), [f32; 3]>,
+}
+
+/// The solved elements made ready to be gathered from: sources undiluted,
+/// corrected by the Jacobi passes.
+pub struct FinalGather<'a> {
+    gather: Gather<'a>,
+}
+
+impl<'a> FinalGather<'a> {
+    /// Builds the sources from the solved `radiosity` and runs
+    /// `settings.source_passes` Jacobi passes at the element centres.
+    ///
+    /// # Panics
+    /// If `radiosity.len() != solved.elements.len()`.
+    pub fn new(
+        scene: &'a Scene,
+        solved: &Mesh,
+        tree: &'a ShooterTree,
+        radiosity: &[[f32; 3]],
+        settings: &VertexGather,
+    ) -> Self {
+        assert_eq!(radiosity.len(), solved.elements.len());
+        let occluders = Occluders::new(scene);
+        // A solved element partly under a box has its light spread over its
+        // whole area, the covered part included: the part that shows is
+        // brighter than that mean by 1 / (exposed share).
+        let exposed = exposed_parts(scene, solved, &occluders);
+        let undiluted: Vec<[f32; 3]> = radiosity
             .iter()
             .zip(&exposed)
-            .map(|(e, part)| (part.centre, e.normal, e.patch))
+            .map(|(b, part)| match part.share {
+                s if s > 0.0 => (Vec3::from(*b) / s).to_array(),
+                _ => [0.0; 3],
+            })
             .collect();
-        let mut corrected = gather.at_points(&frames);
-        for (b, part) in corrected.iter_mut().zip(&exposed) {
-            if part.share <= 0.0 {
-                *b = [0.0; 3];
+        let first = sources(scene, solved, tree, &undiluted, &exposed);
+        let roots: Vec<u32> = (0..tree.nodes.len() as u32)
+            .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
+            .collect();
+        let mut gather = Gather {
+            scene,
+            tree,
+            clusters: Clusters::new(tree, &roots, &first),
+            sources: first,
+            occluders,
+            settings: *settings,
+        };
+        // Each pass at the elements (the centre of their exposed part) is a
+        // Jacobi step with exact form factors: it corrects the solve's
+        // element values (biased where its form factors are, on coarse
+        // elements) by the share rho that comes back.
+        for _ in 0..settings.source_passes {
+            let frames: Vec<Frame> = solved
+                .elements
+                .iter()
+                .zip(&exposed)
+                .map(|(e, part)| (part.centre, e.normal, e.patch))
+                .collect();
+            let mut corrected = gather.at_points(&frames);
+            for (b, part) in corrected.iter_mut().zip(&exposed) {
+                if part.share <= 0.0 {
+                    *b = [0.0; 3];
+                }
             }
+            gather.sources = sources(scene, solved, tree, &corrected, &exposed);
+            gather.clusters.relight(&gather.sources);
         }
-        gather.sources = sources(scene, solved, tree, &corrected, &exposed);
-        gather.clusters.relight(&gather.sources);
+        FinalGather { gather }
     }
-    // One gather per smooth group: vertices at one place on patches that
-    // meet below the crease angle show one value.
-    let (points, _, patches) = vertex_frames(scene, display);
-    let groups = smooth_groups(scene, display, CREASE_DEGREES);
-    let frames: Vec<Frame> = groups
-        .members
-        .iter()
-        .map(|&(v, normal)| (points[v as usize], normal, patches[v as usize]))
-        .collect();
-    let values = gather.at_points(&frames);
-    groups
-        .group
-        .iter()
-        .map(|&g| values.get(g as usize).copied().unwrap_or([0.0; 3]))
-        .collect()
+
+    /// Radiosity at every vertex of `display` (any mesh of the same scene;
+    /// vertices no element uses get 0). Vertices at one place on patches
+    /// that meet below the crease angle are gathered once and show one
+    /// value. Places found in `cache` are not gathered again; new ones are
+    /// added to it.
+    pub fn at_vertices(&self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
+        let scene = self.gather.scene;
+        let (points, _, patches) = vertex_frames(scene, display);
+        let groups = smooth_groups(scene, display, CREASE_DEGREES);
+        let cell = 1e-6 * scene.extent().max(f32::MIN_POSITIVE);
+        let key = |v: u32| {
+            let p = display.vertices[v as usize] / cell;
+            (patches[v as usize], [p.x as i64, p.y as i64, p.z as i64])
+        };
+        let todo: Vec<usize> = (0..groups.members.len())
+            .filter(|&g| !cache.values.contains_key(&key(groups.members[g].0)))
+            .collect();
+        let frames: Vec<Frame> = todo
+            .iter()
+            .map(|&g| {
+                let (v, normal) = groups.members[g];
+                (points[v as usize], normal, patches[v as usize])
+            })
+            .collect();
+        for (&g, value) in todo.iter().zip(self.gather.at_points(&frames)) {
+            cache.values.insert(key(groups.members[g].0), value);
+        }
+        groups
+            .group
+            .iter()
+            .map(|&g| match groups.members.get(g as usize) {
+                Some(&(v, _)) => cache.values[&key(v)],
+                None => [0.0; 3],
+            })
+            .collect()
+    }
+
+    /// Radiosity at arbitrary points `(point, normal, patch)` on the front
+    /// of their patch.
+    pub fn at_points(&self, frames: &[(Vec3, Vec3, u32)]) -> Vec<[f32; 3]> {
+        self.gather.at_points(frames)
+    }
 }
 
 /// Where a value is gathered: point, normal, patch (`u32::MAX`: none).
@@ -442,5 +504,6 @@ impl Source {
 
 mod clusters;
 mod exposure;
+pub mod refine;
 #[cfg(test)]
 mod tests;

@@ -76,10 +76,11 @@ fn a_closed_glowing_box_gathers_its_exact_radiosity() {
     }
 }
 
-#[test]
-fn no_light_leaks_under_a_box_standing_on_the_floor() {
-    // A 4 x 4 floor, a square light 2 above it, a box (no bottom face)
-    // standing on the floor beside the light's footprint.
+/// A 4 x 4 floor (patch 0), a unit square light 2 above it (patch 1), a
+/// 0.6 x 0.3 x 0.6 box (no bottom face) standing on the floor beside the
+/// light's footprint, at x 0.6..1.2, |z| < 0.3. Returns the scene and the
+/// light's corners.
+fn box_on_the_floor() -> (Scene, Vec<Vec3>) {
     let floor = facing(
         vec![
             Vec3::new(-2.0, 0.0, -2.0),
@@ -105,15 +106,25 @@ fn no_light_leaks_under_a_box_standing_on_the_floor() {
     let mut s = scene(&refs);
     s.materials = vec![material(0.5, 0.0), material(0.0, 1.0)];
     s.patches[1].material = 1;
-    let mesh = uniform(&s, 0.1);
-    let tree = ShooterTree::new(&s, &mesh);
-    // Direct light only: the light at B = 1, everything else dark, and
-    // no pass at the element centres (which would add a bounce).
-    let b: Vec<[f32; 3]> = mesh
-        .elements
+    (s, light)
+}
+
+/// Direct light only: the light at B = 1, everything else dark.
+fn lit_by_the_light_alone(mesh: &Mesh) -> Vec<[f32; 3]> {
+    mesh.elements
         .iter()
         .map(|e| [if e.patch == 1 { 1.0 } else { 0.0 }; 3])
-        .collect();
+        .collect()
+}
+
+#[test]
+fn no_light_leaks_under_a_box_standing_on_the_floor() {
+    let (s, light) = box_on_the_floor();
+    let mesh = uniform(&s, 0.1);
+    let tree = ShooterTree::new(&s, &mesh);
+    // Direct light only, and no pass at the element centres (which would
+    // add a bounce).
+    let b = lit_by_the_light_alone(&mesh);
     let settings = VertexGather {
         source_passes: 0,
         ..VertexGather::default()
@@ -196,4 +207,51 @@ fn the_floor_under_a_box_is_enclosed_and_beside_it_exposed() {
             );
         }
     }
+}
+
+#[test]
+fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
+    // Solved finely, shown on a coarse mesh: the box's shadow falls inside
+    // display elements, and only those are split.
+    let (s, light) = box_on_the_floor();
+    let solved = uniform(&s, 0.1);
+    let tree = ShooterTree::new(&s, &solved);
+    let settings = VertexGather {
+        source_passes: 0,
+        ..VertexGather::default()
+    };
+    let gather = FinalGather::new(
+        &s,
+        &solved,
+        &tree,
+        &lit_by_the_light_alone(&solved),
+        &settings,
+    );
+    let display = uniform(&s, 0.5);
+    let values = gather.at_vertices(&display, &mut VertexCache::default());
+    let refinement = refine::DisplayRefinement {
+        passes: 1,
+        suspect: 0.25,
+        tolerance: 0.05,
+        floor: 0.05,
+        min_edge: 0.05,
+    };
+    let mut checked = refine::Checked::default();
+    let points = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
+    assert!(!points.is_empty(), "the shadow's elements are split");
+    let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
+    for &(patch, p) in &points {
+        // Every split is on the floor where the box hides part of the
+        // light, or right beside the box; none where the floor sees all.
+        assert_eq!(patch, 0, "split at {p} off the floor");
+        let exact = point_to_polygon(p.as_dvec3(), DVec3::Y, &light) as f32;
+        let seen = gather.at_points(&[(p, Vec3::Y, 0)])[0][0] / 0.5;
+        assert!(
+            seen < 0.99 * exact || p.x > 0.4,
+            "split at {p}, where the light is seen whole ({seen} of {exact})"
+        );
+    }
+    // Looked at once: a second pass on the same mesh gathers nothing new.
+    let again = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
+    assert!(again.is_empty());
 }

@@ -1,0 +1,132 @@
+//! Where the display mesh is too coarse for the gathered light: the image
+//! interpolates the vertex values linearly, so inside a penumbra (whose
+//! profile is curved, and whose edge-edge boundaries the planar projection
+//! does not mesh) or across a skinny element between shadow lines, the
+//! Gouraud value can be far from the light that falls there.
+//!
+//! An element is suspect when its corners disagree (a gradient); a
+//! suspect is split when the value gathered at its centroid differs from
+//! the mean of its corners by more than a tolerance of the local level
+//! (a curve, which Gouraud shading cannot show, and not a ramp, which it
+//! can). Only suspects are gathered at, so a smooth scene pays almost
+//! nothing.
+
+use std::collections::HashSet;
+
+use glam::Vec3;
+
+use super::FinalGather;
+use crate::mesh::Mesh;
+use crate::output::tonemap::luminance;
+use crate::scene::Scene;
+
+/// When a display element is split.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DisplayRefinement {
+    /// Refinement passes (0: none).
+    pub passes: usize,
+    /// An element is looked at when its corners differ by more than this
+    /// share of the local level.
+    pub suspect: f32,
+    /// Split where the centroid's gap exceeds this share of the local
+    /// level (the larger of the centroid's and the corners' mean).
+    pub tolerance: f32,
+    /// Levels under this share of the mean receiver level count as this
+    /// (deep shadow: a large relative gap there is a small one in the
+    /// image).
+    pub floor: f32,
+    /// Leave elements whose longest edge is under this alone.
+    pub min_edge: f32,
+}
+
+/// Which element centroids were gathered at already (an element a pass
+/// kept is not looked at again).
+#[derive(Default)]
+pub struct Checked {
+    centres: HashSet<[i64; 3]>,
+}
+
+/// The centroids of the display elements to split, as `(patch, point)`,
+/// worst first, at most one per four elements.
+pub fn split_points(
+    scene: &Scene,
+    display: &Mesh,
+    values: &[[f32; 3]],
+    gather: &FinalGather,
+    settings: &DisplayRefinement,
+    checked: &mut Checked,
+) -> Vec<(u32, Vec3)> {
+    let cell = 1e-6 * scene.extent().max(f32::MIN_POSITIVE);
+    let place = |p: Vec3| {
+        let q = p / cell;
+        [q.x as i64, q.y as i64, q.z as i64]
+    };
+    let corner_levels = |k: usize| -> (f32, f32, f32) {
+        let corners = display.elements[k].corners();
+        let levels = corners.iter().map(|&v| luminance(values[v as usize]));
+        let (mut lo, mut hi, mut sum) = (f32::INFINITY, 0.0f32, 0.0f32);
+        for l in levels {
+            lo = lo.min(l);
+            hi = hi.max(l);
+            sum += l;
+        }
+        (lo, hi, sum / corners.len().max(1) as f32)
+    };
+    let receiving = |k: usize| {
+        let e = &display.elements[k];
+        e.area > 0.0 && !scene.patch_material(e.patch).is_emitter()
+    };
+    let (mut sum, mut area) = (0.0f64, 0.0f64);
+    for k in (0..display.elements.len()).filter(|&k| receiving(k)) {
+        sum += f64::from(corner_levels(k).2) * f64::from(display.elements[k].area);
+        area += f64::from(display.elements[k].area);
+    }
+    if area <= 0.0 || sum <= 0.0 {
+        return Vec::new();
+    }
+    let floor = settings.floor * (sum / area) as f32;
+    let suspects: Vec<usize> = (0..display.elements.len())
+        .filter(|&k| receiving(k) && longest_edge(display, k) >= settings.min_edge)
+        .filter(|&k| {
+            let (lo, hi, mean) = corner_levels(k);
+            hi - lo > settings.suspect * mean.max(floor)
+        })
+        .filter(|&k| checked.centres.insert(place(display.elements[k].centre)))
+        .collect();
+    let frames: Vec<(Vec3, Vec3, u32)> = suspects
+        .iter()
+        .map(|&k| {
+            let e = &display.elements[k];
+            (e.centre, e.normal, e.patch)
+        })
+        .collect();
+    let at_centres = gather.at_points(&frames);
+    let mut split: Vec<(f32, usize)> = suspects
+        .iter()
+        .zip(at_centres)
+        .filter_map(|(&k, centre)| {
+            let centre = luminance(centre);
+            let mean = corner_levels(k).2;
+            let gap = (centre - mean).abs();
+            (gap > settings.tolerance * centre.max(mean).max(floor))
+                .then(|| (gap * gap * display.elements[k].area, k))
+        })
+        .collect();
+    split.sort_by(|a, b| b.0.total_cmp(&a.0));
+    split.truncate(display.elements.len() / 4);
+    split
+        .into_iter()
+        .map(|(_, k)| (display.elements[k].patch, display.elements[k].centre))
+        .collect()
+}
+
+fn longest_edge(mesh: &Mesh, k: usize) -> f32 {
+    let corners = mesh.elements[k].corners();
+    (0..corners.len())
+        .map(|i| {
+            let a = mesh.vertices[corners[i] as usize];
+            let b = mesh.vertices[corners[(i + 1) % corners.len()] as usize];
+            a.distance(b)
+        })
+        .fold(0.0, f32::max)
+}
