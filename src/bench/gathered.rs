@@ -4,7 +4,7 @@
 //! as a fine mesh's interpolation smooths them, so the reference favours no
 //! mesher.
 //!
-//! The samples match [`crate::render::render_image`]: 2x2 per pixel at the
+//! The samples match [`crate::render::render_image`]: [`SUPERSAMPLE`]^2 per pixel at the
 //! supersampled image's pixel centres, box-filtered; back faces are black.
 //!
 //! Along with the image comes a mask of the pixels that measure shading:
@@ -13,14 +13,19 @@
 //! rays may disagree by a sample, and the emitters, whose brightness would
 //! swamp the error) are left out of comparisons.
 
+use std::sync::Arc;
+
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
 use crate::error::Result;
-use crate::formfactor::gather::Gatherer;
+use crate::formfactor::gather::{GatherRays, Gatherer};
+use crate::gpu::Device;
+use crate::mesh::build::{build_mesh, MeshSettings, Mesher};
 use crate::output::image_io::HdrImage;
 use crate::render::{camera_view_proj, SUPERSAMPLE};
 use crate::scene::{Camera, Scene};
+use crate::solve::{solve, FormFactorMethod, Progress, Shooting, SolveSettings};
 
 /// A gathered image and which of its pixels measure shading.
 pub struct GatheredImage {
@@ -126,4 +131,100 @@ fn front_patch_along(
     // A back face shows black.
     (direction.dot(scene.patches[patch as usize].normal) < 0.0)
         .then(|| (eye + t * direction, patch))
+}
+
+/// How a gathered reference is made: a uniform source mesh, solved by ray
+/// tracing, then gathered at every image sample.
+#[derive(Debug, Clone, Copy)]
+pub struct ReferenceSettings {
+    /// Maximum edge of the uniform source mesh.
+    pub source_edge: f32,
+    /// Rays per receiver vertex of the source solve.
+    pub solve_rays: usize,
+    /// Convergence of the source solve (unshot power / emitted power).
+    pub converge: f64,
+    /// Rays from every image sample to the emitters, spread evenly over
+    /// the emitting source elements (at least 16 each).
+    pub emitter_rays: usize,
+    /// Rays from every image sample to each reflecting source element.
+    pub reflector_rays: usize,
+    pub seed: u64,
+}
+
+/// A gathered reference and what went into it.
+pub struct Reference {
+    pub image: GatheredImage,
+    pub source_elements: usize,
+    pub shots: usize,
+    pub converged: bool,
+    /// Wall time of the source solve and of the gather.
+    pub solve_seconds: f64,
+    pub gather_seconds: f64,
+    /// What the reference is, in words.
+    pub what: String,
+}
+
+/// Solves `scene` on its uniform source mesh and gathers the image seen
+/// from `camera`.
+pub fn gathered_reference(
+    device: &Arc<Device>,
+    scene: &Scene,
+    settings: &ReferenceSettings,
+    camera: &Camera,
+    size: (u32, u32),
+) -> Result<Reference> {
+    let (mesh, _) = build_mesh(
+        device,
+        scene,
+        &MeshSettings {
+            mesher: Mesher::Uniform,
+            max_edge: settings.source_edge,
+            dm_res: 128,
+        },
+    )?;
+    let solve_settings = SolveSettings {
+        method: FormFactorMethod::RayTrace {
+            rays: settings.solve_rays,
+        },
+        converge: settings.converge,
+        unshot_share: None,
+        gather_passes: 0,
+        shooting: Shooting::Element,
+        max_shots: 10_000_000,
+        ..SolveSettings::default()
+    };
+    let t = std::time::Instant::now();
+    let solution = solve(device, scene, &mesh, &solve_settings, |_: &Progress| true)?;
+    let solve_seconds = t.elapsed().as_secs_f64();
+    let t = std::time::Instant::now();
+    let emitting = mesh
+        .elements
+        .iter()
+        .filter(|e| scene.patch_material(e.patch).is_emitter())
+        .count()
+        .max(1);
+    let rays = GatherRays {
+        emitters: settings.emitter_rays.div_ceil(emitting).max(16),
+        reflectors: settings.reflector_rays,
+    };
+    let gatherer = Gatherer::new(scene, &mesh, &solution.radiosity, rays);
+    let image = gathered_image(scene, &gatherer, camera, size, settings.seed)?;
+    let gather_seconds = t.elapsed().as_secs_f64();
+    let what = format!(
+        "per-pixel gather ({SUPERSAMPLE}x{SUPERSAMPLE} samples a pixel; exact point-to-polygon form factor x ray-traced visibility; {} rays to each of {emitting} emitting source elements, {} to each reflecting one) from a uniform ray-traced solution ({} rays a vertex, converge {:e}) of {} elements",
+        rays.emitters,
+        rays.reflectors,
+        settings.solve_rays,
+        settings.converge,
+        mesh.elements.len()
+    );
+    Ok(Reference {
+        image,
+        source_elements: mesh.elements.len(),
+        shots: solution.shots,
+        converged: solution.converged,
+        solve_seconds,
+        gather_seconds,
+        what,
+    })
 }

@@ -1,5 +1,6 @@
-//! Reference images: computed once per (scene content, mesh, method) and
-//! cached on disk as JSON in `OUT/cache/`.
+//! Reference images: computed once per (scene content, source mesh and
+//! solve, gather settings, camera, image size) and cached on disk as JSON
+//! in `OUT/cache/`.
 
 use std::path::{Path, PathBuf};
 
@@ -8,8 +9,10 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Error, Result};
 use crate::output::image_io::HdrImage;
 
-/// Bumped whenever the cached data or its meaning changes.
-pub const CACHE_FORMAT: u32 = 1;
+/// Bumped whenever the cached data or its meaning changes. 2: the
+/// per-pixel gathered reference with its shading mask (1 was a solve's
+/// image on the bench mesh).
+pub const CACHE_FORMAT: u32 = 2;
 
 /// A reference as stored in the cache.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -18,8 +21,9 @@ pub struct CachedReference {
     /// The cache key in hex (also the file name's suffix), checked on load.
     pub key: String,
     pub scene: String,
-    /// e.g. `analytic, converge 1e-5`.
+    /// What the reference is, in words.
     pub kind: String,
+    /// Maximum edge and elements of the source mesh.
     pub max_edge: f32,
     pub elements: usize,
     pub shots: usize,
@@ -29,6 +33,8 @@ pub struct CachedReference {
     pub height: u32,
     /// Linear radiance, row-major from the top-left.
     pub pixels: Vec<[f32; 3]>,
+    /// Per pixel: whether it measures shading (compared).
+    pub shading: Vec<bool>,
 }
 
 impl CachedReference {
@@ -74,6 +80,7 @@ pub fn load(path: &Path, key: u64) -> Option<CachedReference> {
     let ok = r.format == CACHE_FORMAT
         && r.key == format!("{key:016x}")
         && r.pixels.len() == (r.width as usize) * (r.height as usize)
+        && r.shading.len() == r.pixels.len()
         && r.pixels.iter().flatten().all(|v| v.is_finite());
     ok.then_some(r)
 }
