@@ -35,9 +35,16 @@ pub struct GatheredImage {
 }
 
 /// Renders the gathered radiance (B / pi) seen from `camera`.
+///
+/// With `indirect`, `gatherer` holds the emitters' light alone and
+/// `indirect` the rest: the direct light is gathered at every sample, the
+/// indirect light (smooth, and most of the cost: every reflecting source
+/// element) once at the pixel's centre and used for the samples on the
+/// same patch (a sample on another patch gathers its own).
 pub fn gathered_image(
     scene: &Scene,
     gatherer: &Gatherer,
+    indirect: Option<&Gatherer>,
     camera: &Camera,
     (width, height): (u32, u32),
     seed: u64,
@@ -50,7 +57,18 @@ pub fn gathered_image(
         .map(|k| {
             let (x, y) = (k % width, k / width);
             let mut sum = Vec3::ZERO;
-            let mut patches = Vec::with_capacity(8);
+            let mut patches = Vec::with_capacity(SUPERSAMPLE as usize * SUPERSAMPLE as usize + 4);
+            let centre_ndc = (
+                (x as f32 + 0.5) / width as f32 * 2.0 - 1.0,
+                (y as f32 + 0.5) / height as f32 * 2.0 - 1.0,
+            );
+            let indirect = indirect.map(|g| {
+                let centre = front_patch_along(scene, gatherer, camera.eye, unproject, centre_ndc)
+                    .map(|(p, patch)| {
+                        (patch, indirect_at(scene, g, p, patch, !seed ^ u64::from(k)))
+                    });
+                (g, centre)
+            });
             for dy in 0..SUPERSAMPLE {
                 for dx in 0..SUPERSAMPLE {
                     let sx = x * SUPERSAMPLE + dx;
@@ -60,8 +78,15 @@ pub fn gathered_image(
                         (sy as f32 + 0.5) / sh as f32 * 2.0 - 1.0,
                     );
                     let sample_seed = seed ^ (u64::from(sy) << 32 | u64::from(sx));
-                    let (radiance, patch) =
-                        radiance_along(scene, gatherer, camera.eye, unproject, ndc, sample_seed);
+                    let (radiance, patch) = radiance_along(
+                        scene,
+                        gatherer,
+                        indirect,
+                        camera.eye,
+                        unproject,
+                        ndc,
+                        sample_seed,
+                    );
                     sum += radiance;
                     patches.push(patch);
                 }
@@ -99,11 +124,23 @@ pub fn gathered_image(
     })
 }
 
+/// The indirect gatherer and its value at the pixel's centre (patch,
+/// radiosity), if the centre sees the front of a patch.
+type Indirect<'g, 'a> = Option<(&'g Gatherer<'a>, Option<(u32, Vec3)>)>;
+
+/// The reflected part of the radiosity `indirect` gathers at `p` (its
+/// emission left out: the direct gatherer has it).
+fn indirect_at(scene: &Scene, indirect: &Gatherer, p: Vec3, patch: u32, seed: u64) -> Vec3 {
+    let emission = scene.patch_material(patch).emission * std::f32::consts::PI;
+    indirect.radiosity_at(p, patch, seed) - emission
+}
+
 /// Radiance seen through the normalized device coordinates `ndc`, and the
 /// patch whose front is seen there (`None`: nothing, or a back face).
 fn radiance_along(
     scene: &Scene,
     gatherer: &Gatherer,
+    indirect: Indirect,
     eye: Vec3,
     unproject: Mat4,
     ndc: (f32, f32),
@@ -112,7 +149,12 @@ fn radiance_along(
     let Some((point, patch)) = front_patch_along(scene, gatherer, eye, unproject, ndc) else {
         return (Vec3::ZERO, None);
     };
-    let b = gatherer.radiosity_at(point, patch, seed);
+    let mut b = gatherer.radiosity_at(point, patch, seed);
+    match indirect {
+        Some((_, Some((centre_patch, value)))) if centre_patch == patch => b += value,
+        Some((g, _)) => b += indirect_at(scene, g, point, patch, !seed),
+        None => {}
+    }
     (b / std::f32::consts::PI, Some(patch))
 }
 
@@ -207,11 +249,26 @@ pub fn gathered_reference(
         emitters: settings.emitter_rays.div_ceil(emitting).max(16),
         reflectors: settings.reflector_rays,
     };
-    let gatherer = Gatherer::new(scene, &mesh, &solution.radiosity, rays);
-    let image = gathered_image(scene, &gatherer, camera, size, settings.seed)?;
+    // The emitters' light at every sample, the rest at pixel centres.
+    let split = |emitters: bool| -> Vec<[f32; 3]> {
+        mesh.elements
+            .iter()
+            .zip(&solution.radiosity)
+            .map(|(e, b)| {
+                if scene.patch_material(e.patch).is_emitter() == emitters {
+                    *b
+                } else {
+                    [0.0; 3]
+                }
+            })
+            .collect()
+    };
+    let direct = Gatherer::new(scene, &mesh, &split(true), rays);
+    let indirect = Gatherer::new(scene, &mesh, &split(false), rays);
+    let image = gathered_image(scene, &direct, Some(&indirect), camera, size, settings.seed)?;
     let gather_seconds = t.elapsed().as_secs_f64();
     let what = format!(
-        "per-pixel gather ({SUPERSAMPLE}x{SUPERSAMPLE} samples a pixel; exact point-to-polygon form factor x ray-traced visibility; {} rays to each of {emitting} emitting source elements, {} to each reflecting one) from a uniform ray-traced solution ({} rays a vertex, converge {:e}) of {} elements",
+        "per-pixel gather (exact point-to-polygon form factor x ray-traced visibility; direct light at {SUPERSAMPLE}x{SUPERSAMPLE} samples a pixel, {} rays to each of {emitting} emitting source elements; indirect at the pixel centre, {} rays to each reflecting one) from a uniform ray-traced solution ({} rays a vertex, converge {:e}) of {} elements",
         rays.emitters,
         rays.reflectors,
         settings.solve_rays,

@@ -36,12 +36,13 @@
 //! and the emitters do not count).
 //!
 //! **The reference** is the same for every series and is produced by none
-//! of them: a mesh-free image, every one of its samples gathered
-//! ([`gathered::gathered_reference`]) from a ray-traced solution on a
-//! uniform mesh of half the bench mesh's edge (4x its elements), with 1024
-//! rays (quick: 256) from every sample to the emitters and 4 to every
-//! reflecting source element.
-//! What it shares, and what it does not:
+//! of them: a mesh-free image gathered ([`gathered::gathered_reference`])
+//! from a ray-traced solution on a uniform mesh of a quarter of the bench
+//! mesh's edge (16x its elements; quick: half, 4x). The emitters' light is
+//! gathered at every one of the 4 x 4 samples of a pixel, with 1024 rays
+//! (quick: 256) from each sample to the emitters; the reflected light once
+//! at the pixel's centre, with 4 rays to every reflecting source element.
+//! What it shares with the judged runs, and what it does not:
 //!
 //! * its kernel is the one the ray tracer and the final gather also use:
 //!   the exact unoccluded point-to-polygon form factor
@@ -56,10 +57,17 @@
 //!   elements. On `plates` (nothing blocks) the ray tracer's vertex values
 //!   are exact too, so what it is charged with there is its interpolation
 //!   and its coarser indirect light;
-//! * its indirect light comes from the source solution, so that solution's
-//!   error (a ray-traced, converged, 4x finer solve: the `raytrace` method
-//!   on a mesh no judged run uses) enters the reference only after one more
-//!   reflection (times rho F).
+//! * its reflected light comes from the source solution (16 rays a vertex,
+//!   converged to 1e-3: the `raytrace` method, on a mesh no judged run
+//!   uses), taken as constant over each source element. That solution's
+//!   error enters the reference only after one more reflection (times
+//!   rho F), but the piecewise-constant sources are the reference's own
+//!   limit: on `cornell` going from 412 to 1,648 source elements moved the
+//!   reference by 2.0% (relative RMS over the compared pixels), on `plates`
+//!   and `simple` by 0.04% and 0.03%. Differences of about 1% on `cornell`
+//!   are within the reference's own uncertainty. (Gathering the reflected
+//!   light at every sample instead of the pixel centre moved the 412-element
+//!   `cornell` reference by 0.3%, at 2.5x the cost.)
 //!
 //! The reference is cached in `OUT/cache/`, keyed by a hash of the scene's
 //! content (geometry, materials, camera), the source mesh, the source
@@ -98,11 +106,12 @@ pub const ERROR_IMAGE_SIZE: (u32, u32) = (96, 96);
 /// Convergence of every swept solve.
 pub const CONVERGE: f64 = 1e-3;
 /// The reference's source mesh has this many times finer edges than the
-/// bench mesh.
-pub const REFERENCE_EDGE_DIVISOR: f32 = 2.0;
+/// bench mesh (default, quick).
+pub const REFERENCE_EDGE_DIVISOR: f32 = 4.0;
+pub const QUICK_REFERENCE_EDGE_DIVISOR: f32 = 2.0;
 /// Rays per receiver vertex and convergence of the reference's source solve.
-pub const REFERENCE_SOLVE_RAYS: usize = 64;
-pub const REFERENCE_CONVERGE: f64 = 1e-4;
+pub const REFERENCE_SOLVE_RAYS: usize = 16;
+pub const REFERENCE_CONVERGE: f64 = 1e-3;
 /// Rays from every sample of the reference's gather to the emitters
 /// (default, quick; spread over the emitting source elements), and to each
 /// reflecting source element.
@@ -206,6 +215,8 @@ pub struct SweepPlan {
     pub max_elements: usize,
     /// Rays from every sample of the reference's gather to the emitters.
     pub reference_emitter_rays: usize,
+    /// The reference's source mesh edge is the bench mesh's over this.
+    pub reference_edge_divisor: f32,
 }
 
 impl SweepPlan {
@@ -219,6 +230,7 @@ impl SweepPlan {
                 default_factors: vec![4.0, 2.0],
                 max_elements: max_elements.unwrap_or(QUICK_MAX_ELEMENTS),
                 reference_emitter_rays: QUICK_REFERENCE_EMITTER_RAYS,
+                reference_edge_divisor: QUICK_REFERENCE_EDGE_DIVISOR,
             }
         } else {
             SweepPlan {
@@ -229,6 +241,7 @@ impl SweepPlan {
                 default_factors: vec![4.0, 2.0, 1.0],
                 max_elements: max_elements.unwrap_or(DEFAULT_MAX_ELEMENTS),
                 reference_emitter_rays: REFERENCE_EMITTER_RAYS,
+                reference_edge_divisor: REFERENCE_EDGE_DIVISOR,
             }
         }
     }
@@ -648,7 +661,7 @@ fn scene_reference(
         .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
     let camera = default_camera(scene);
     let settings = ReferenceSettings {
-        source_edge: bench_edge / REFERENCE_EDGE_DIVISOR,
+        source_edge: bench_edge / plan.reference_edge_divisor,
         solve_rays: REFERENCE_SOLVE_RAYS,
         converge: REFERENCE_CONVERGE,
         emitter_rays: plan.reference_emitter_rays,
