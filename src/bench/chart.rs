@@ -65,10 +65,7 @@ fn style(sweep: Sweep) -> (RGBColor, &'static str) {
         Sweep::Hemicube => (RGBColor(31, 119, 180), "raw hemicube: resolution"),
         Sweep::RayTrace => (RGBColor(214, 39, 40), "raw ray trace: rays per vertex"),
         Sweep::ElementSize => (RGBColor(44, 160, 44), "raw hemicube: element count"),
-        Sweep::Default => (
-            RGBColor(255, 127, 14),
-            "default + final gather: edges",
-        ),
+        Sweep::Default => (RGBColor(255, 127, 14), "default + final gather: edges"),
     }
 }
 

@@ -88,7 +88,8 @@ const REFERENCE_EMITTER_RAYS: (usize, usize) = (256, 1024);
 pub const UNIFORM: &str = "uniform";
 pub const DM_REFINED: &str = "discontinuity + uniform refinement";
 pub const DM_ADAPTIVE: &str = "discontinuity + a posteriori";
-pub const DEFAULT: &str = "default: uniform hemicube solve, discontinuity display mesh, final gather";
+pub const DEFAULT: &str =
+    "default: uniform hemicube solve, discontinuity display mesh, final gather";
 /// The series in drawing order.
 pub const SERIES: [&str; 4] = [UNIFORM, DM_REFINED, DM_ADAPTIVE, DEFAULT];
 
@@ -154,9 +155,13 @@ pub fn run_mesher_bench(
     let timed = |job: &Job| -> Result<(Report, f64)> {
         let t = Instant::now();
         let scene = crate::scene::load_scene_arg(&job.scene)?;
-        let r = run_scene(job, scene, t.elapsed().as_secs_f64(), Some(device.clone()), |_| {
-            true
-        })?;
+        let r = run_scene(
+            job,
+            scene,
+            t.elapsed().as_secs_f64(),
+            Some(device.clone()),
+            |_| true,
+        )?;
         Ok((r, t.elapsed().as_secs_f64()))
     };
     // A raw run: the solved mesh's own vertex values.
@@ -324,9 +329,7 @@ fn draw<DB: DrawingBackend>(
 ) -> std::result::Result<(), String> {
     let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
     root.fill(&WHITE).map_err(e)?;
-    let root = root
-        .titled(title, ("sans-serif", 18))
-        .map_err(e)?;
+    let root = root.titled(title, ("sans-serif", 18)).map_err(e)?;
     let (top, body) = root.split_vertically(34);
     top.draw(&Text::new(
         "raw: ray-traced solve, the solved mesh's own vertex values (no final gather). default: vkrad SCENE. Time: the whole run.",

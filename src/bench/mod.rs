@@ -482,9 +482,8 @@ pub fn run_bench_on(
         for &factor in &plan.default_factors {
             let job = default_job(scene, factor, &scratch);
             let t = Instant::now();
-            let r = crate::app::run_scene(&job, scene.clone(), 0.0, Some(device.clone()), |_| {
-                true
-            })?;
+            let r =
+                crate::app::run_scene(&job, scene.clone(), 0.0, Some(device.clone()), |_| true)?;
             let wall_seconds = t.elapsed().as_secs_f64();
             let error = error_of(&r.image)?;
             push(
@@ -711,7 +710,8 @@ fn scene_reference(
                 scene.name,
             ));
             let t = Instant::now();
-            let r = gathered::gathered_reference(device, scene, &settings, &camera, ERROR_IMAGE_SIZE)?;
+            let r =
+                gathered::gathered_reference(device, scene, &settings, &camera, ERROR_IMAGE_SIZE)?;
             let wall_seconds = t.elapsed().as_secs_f64();
             progress(&format!(
                 "{}: reference solve {:.1} s, gather {:.1} s",
