@@ -279,7 +279,7 @@ fn draw<DB: DrawingBackend>(
 /// `hemicube 1024px, converge 1e-4` -> `hemicube 1024px ref.`.
 fn short_reference(kind: &str) -> String {
     if kind.starts_with("per-pixel gather") {
-        return "per-pixel gathered ref.".into();
+        return "per-pixel gather".into();
     }
     let head = kind.split(',').next().unwrap_or(kind).trim();
     if head.is_empty() {
@@ -313,7 +313,7 @@ where
 
 /// Log-axis tick labels at 1, 2 and 5 times a power of ten only (plotters
 /// puts a tick at every integer multiple, far too many to label).
-fn tick_label(v: f64, scientific: bool) -> String {
+pub(crate) fn tick_label(v: f64, scientific: bool) -> String {
     if v.is_nan() || v <= 0.0 {
         return String::new();
     }

@@ -14,12 +14,13 @@
 //!   gather, and the chart would compare nothing.)
 //! * `default`: `vkrad SCENE` as a user runs it (hierarchical hemicube
 //!   solve on a uniform mesh, discontinuity display mesh at half its edge,
-//!   final gather at the display vertices), at the default edges and at
-//!   2x and 4x them. It is drawn at its *display* mesh's element count
+//!   final gather at the display vertices), at the default edges, at 2x
+//!   and 4x them, and at half of them. It is drawn at its *display* mesh's element count
 //!   (the mesh the image interpolates); `solved_elements` has the solve's.
 //!
 //! Every run is timed as the whole job (`app::run`: load, mesh, solve,
-//! display mesh, gather, render, write), on a device made once.
+//! display mesh, gather, render, write), on a device made once; runs under
+//! a second are timed up to three times and the fastest counts.
 //!
 //! The reference is not a mesh: every image sample's radiosity is gathered
 //! from a converged ray-traced solution on a fine uniform mesh
@@ -88,8 +89,12 @@ const REFERENCE_EMITTER_RAYS: (usize, usize) = (256, 1024);
 pub const UNIFORM: &str = "uniform";
 pub const DM_REFINED: &str = "discontinuity + uniform refinement";
 pub const DM_ADAPTIVE: &str = "discontinuity + a posteriori";
-pub const DEFAULT: &str =
-    "default: uniform hemicube solve, discontinuity display mesh, final gather";
+/// `vkrad SCENE`: uniform hemicube solve, discontinuity display mesh,
+/// final gather.
+pub const DEFAULT: &str = "default";
+/// Runs faster than this are timed again (up to three times in all; the
+/// fastest counts: one-off stalls on a shared machine dominate them).
+const REPEAT_BELOW_SECONDS: f64 = 1.0;
 /// The series in drawing order.
 pub const SERIES: [&str; 4] = [UNIFORM, DM_REFINED, DM_ADAPTIVE, DEFAULT];
 
@@ -152,7 +157,7 @@ pub fn run_mesher_bench(
     ));
 
     let tmp = out_dir.join(".meshers.hdr");
-    let timed = |job: &Job| -> Result<(Report, f64)> {
+    let once = |job: &Job| -> Result<(Report, f64)> {
         let t = Instant::now();
         let scene = crate::scene::load_scene_arg(&job.scene)?;
         let r = run_scene(
@@ -163,6 +168,15 @@ pub fn run_mesher_bench(
             |_| true,
         )?;
         Ok((r, t.elapsed().as_secs_f64()))
+    };
+    let timed = |job: &Job| -> Result<(Report, f64)> {
+        let (r, mut wall) = once(job)?;
+        let mut repeats = 1;
+        while repeats < 3 && wall < REPEAT_BELOW_SECONDS {
+            wall = wall.min(once(job)?.1);
+            repeats += 1;
+        }
+        Ok((r, wall))
     };
     // A raw run: the solved mesh's own vertex values.
     let raw = |mesher: Mesher, max_edge: f32, budget: Option<usize>| -> Result<(Report, f64)> {
@@ -193,7 +207,7 @@ pub fn run_mesher_bench(
         let error = relative_rms_error_where(&r.image, &reference.image, Some(&reference.shading))?;
         let elements = r.display_mesh.as_ref().unwrap_or(&r.mesh).elements.len();
         progress(&format!(
-            "{scene_arg}: {mesher} {setting}: {elements} elements shown ({} solved), error {error:.3e} ({wall:.1} s)",
+            "{scene_arg}: {mesher} {setting}: {elements} elements shown ({} solved), error {error:.3e} ({wall:.2} s)",
             r.mesh.elements.len()
         ));
         points.push(MesherPoint {
@@ -231,7 +245,11 @@ pub fn run_mesher_bench(
             )?,
         )?;
     }
-    let factors: &[f32] = if quick { &[4.0, 2.0] } else { &[4.0, 2.0, 1.0] };
+    let factors: &[f32] = if quick {
+        &[4.0, 2.0]
+    } else {
+        &[4.0, 2.0, 1.0, 0.5]
+    };
     for &factor in factors {
         let mut job = super::default_job(&scene, factor, &tmp);
         job.scene = scene_arg.to_string();
@@ -315,7 +333,7 @@ fn style(name: &str) -> (RGBColor, &'static str) {
         DM_ADAPTIVE => (RGBColor(44, 160, 44), "raw: discontinuity + a posteriori"),
         _ => (
             RGBColor(255, 127, 14),
-            "default (display mesh; edges x4, x2, x1)",
+            "default (display mesh; edges x4 .. x0.5)",
         ),
     }
 }
@@ -382,13 +400,7 @@ fn panel<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .x_desc(x_desc)
-        .x_label_formatter(&|x| {
-            if *x >= 10.0 {
-                format!("{x:.0}")
-            } else {
-                format!("{x:.2}")
-            }
-        })
+        .x_label_formatter(&|x| super::chart::tick_label(*x, false))
         .y_desc("relative RMS image error")
         .label_style(("sans-serif", 13))
         .draw()
