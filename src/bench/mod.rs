@@ -36,44 +36,9 @@
 //! and the emitters do not count).
 //!
 //! **The reference** is the same for every series and is produced by none
-//! of them: a mesh-free image gathered ([`gathered::gathered_reference`])
-//! from a ray-traced solution on a uniform mesh of a quarter of the bench
-//! mesh's edge (16x its elements; quick: half, 4x). The emitters' light is
-//! gathered at every one of the 4 x 4 samples of a pixel, with 1024 rays
-//! (quick: 256) from each sample to the emitters; the reflected light once
-//! at the pixel's centre, with 4 rays to every reflecting source element.
-//! What it shares with the judged runs, and what it does not:
-//!
-//! * its kernel is the one the ray tracer and the final gather also use:
-//!   the exact unoccluded point-to-polygon form factor
-//!   (`formfactor::analytic`) times the visible share of stratified rays,
-//!   through the same BVH. The form factor is a closed form, and the
-//!   visible share converges to the true one as rays grow; the reference
-//!   sends 1024 rays to the emitters from every sample, where the judged
-//!   ray tracer sends 1 to 256 to each shooter from every vertex;
-//! * it evaluates it at every image sample: no mesh and no interpolation
-//!   between vertices, so the direct light (and its shadows) is exact up to
-//!   ray noise, where every judged image interpolates vertex values over
-//!   elements. On `plates` (nothing blocks) the ray tracer's vertex values
-//!   are exact too, so what it is charged with there is its interpolation
-//!   and its coarser indirect light;
-//! * its reflected light comes from the source solution (16 rays a vertex,
-//!   converged to 1e-3: the `raytrace` method, on a mesh no judged run
-//!   uses), taken as constant over each source element. That solution's
-//!   error enters the reference only after one more reflection (times
-//!   rho F), but the piecewise-constant sources are the reference's own
-//!   limit: on `cornell` going from 412 to 1,648 source elements moved the
-//!   reference by 2.0% (relative RMS over the compared pixels), on `plates`
-//!   and `simple` by 0.04% and 0.03%. Differences of about 1% on `cornell`
-//!   are within the reference's own uncertainty. (Gathering the reflected
-//!   light at every sample instead of the pixel centre moved the 412-element
-//!   `cornell` reference by 0.3%, at 2.5x the cost.)
-//!
-//! The reference is cached in `OUT/cache/`, keyed by a hash of the scene's
-//! content (geometry, materials, camera), the source mesh, the source
-//! solve's settings, the gather's rays and seed, the supersampling and the
-//! image size; [`reference::CACHE_FORMAT`] changes whenever what is cached
-//! or how it is made changes.
+//! of them: a mesh-free image gathered at every sample from a finer
+//! ray-traced solution; [`reference`] says how it is made, what it shares
+//! with the judged runs, how far it is converged, and how it is cached.
 //!
 //! Outputs in `OUT/`: `bench.json`, `bench.csv`, `bench.svg`, `bench.png`.
 
@@ -94,32 +59,20 @@ use crate::error::{Error, Result};
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::HdrImage;
-use crate::render::{default_camera, render_image, vertex_radiance, SUPERSAMPLE};
+use crate::render::{default_camera, render_image, vertex_radiance};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::{solve, FormFactorMethod, Shooting, SolveSettings};
 
-use gathered::{GatheredImage, ReferenceSettings};
-use reference::{CachedReference, CACHE_FORMAT};
+pub use reference::ReferenceInfo;
+use reference::{
+    scene_reference, QUICK_REFERENCE_EDGE_DIVISOR, QUICK_REFERENCE_EMITTER_RAYS,
+    REFERENCE_EDGE_DIVISOR, REFERENCE_EMITTER_RAYS,
+};
 
 /// Image size on which errors are measured.
 pub const ERROR_IMAGE_SIZE: (u32, u32) = (96, 96);
 /// Convergence of every swept solve.
 pub const CONVERGE: f64 = 1e-3;
-/// The reference's source mesh has this many times finer edges than the
-/// bench mesh (default, quick).
-pub const REFERENCE_EDGE_DIVISOR: f32 = 4.0;
-pub const QUICK_REFERENCE_EDGE_DIVISOR: f32 = 2.0;
-/// Rays per receiver vertex and convergence of the reference's source solve.
-pub const REFERENCE_SOLVE_RAYS: usize = 16;
-pub const REFERENCE_CONVERGE: f64 = 1e-3;
-/// Rays from every sample of the reference's gather to the emitters
-/// (default, quick; spread over the emitting source elements), and to each
-/// reflecting source element.
-pub const REFERENCE_EMITTER_RAYS: usize = 1024;
-pub const QUICK_REFERENCE_EMITTER_RAYS: usize = 256;
-pub const REFERENCE_REFLECTOR_RAYS: usize = 4;
-/// Seed of the reference's gather.
-pub const REFERENCE_SEED: u64 = 0x5eed_bec4;
 /// Element budget of the bench mesh (default, quick).
 pub const DEFAULT_MAX_ELEMENTS: usize = 300;
 pub const QUICK_MAX_ELEMENTS: usize = 150;
@@ -281,28 +234,6 @@ pub struct BenchPoint {
     pub reference: String,
     /// Runs timed (cheap ones are repeated; the fastest counts).
     pub repeats: usize,
-}
-
-/// A scene's reference.
-#[derive(Debug, Clone, Serialize)]
-pub struct ReferenceInfo {
-    pub scene: String,
-    pub kind: String,
-    /// Loaded from the cache rather than computed in this run.
-    pub cached: bool,
-    pub path: PathBuf,
-    /// Maximum edge of the bench mesh (the sweeps' finest).
-    pub bench_edge: f32,
-    /// Maximum edge and elements of the reference's source mesh.
-    pub max_edge: f32,
-    pub elements: usize,
-    /// Shots of the source solve.
-    pub shots: usize,
-    pub converged: bool,
-    /// Pixels compared (the shading mask).
-    pub shading_pixels: usize,
-    /// Time the reference (solve and gather) took when it was computed.
-    pub wall_seconds: f64,
 }
 
 /// What a bench run did.
@@ -657,124 +588,6 @@ fn measure(
         converged: solution.converged,
         wall_seconds,
     })
-}
-
-/// The scene's bench mesh, and its reference (loaded from `cache_dir` or
-/// computed and stored) with the reference image and its shading mask.
-fn scene_reference(
-    device: &Arc<Device>,
-    scene: &Scene,
-    plan: &SweepPlan,
-    cache_dir: &Path,
-    refresh: bool,
-    progress: &mut impl FnMut(&str),
-) -> Result<(ReferenceInfo, Mesh, GatheredImage)> {
-    let (bench_edge, mesh) = scenes::bench_mesh(scene, plan.max_elements);
-    mesh.sanity_check(scene)
-        .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
-    let camera = default_camera(scene);
-    let settings = ReferenceSettings {
-        source_edge: bench_edge / plan.reference_edge_divisor,
-        solve_rays: REFERENCE_SOLVE_RAYS,
-        converge: REFERENCE_CONVERGE,
-        emitter_rays: plan.reference_emitter_rays,
-        reflector_rays: REFERENCE_REFLECTOR_RAYS,
-        seed: REFERENCE_SEED,
-    };
-    let source_elements = mesh::uniform(scene, settings.source_edge).elements.len();
-    let mut h = scenes::Fnv::default();
-    h.u64(CACHE_FORMAT as u64).str(env!("CARGO_PKG_VERSION"));
-    scenes::hash_scene(&mut h, scene);
-    h.f32(settings.source_edge)
-        .u64(source_elements as u64)
-        .u64(settings.solve_rays as u64)
-        .u64(settings.converge.to_bits())
-        .u64(settings.emitter_rays as u64)
-        .u64(settings.reflector_rays as u64)
-        .u64(settings.seed)
-        .u64(SUPERSAMPLE as u64)
-        .vec3(camera.eye)
-        .vec3(camera.look_at)
-        .vec3(camera.up)
-        .f32(camera.fov_y_deg)
-        .u64(ERROR_IMAGE_SIZE.0 as u64)
-        .u64(ERROR_IMAGE_SIZE.1 as u64);
-    let key = h.finish();
-    let path = reference::cache_path(cache_dir, &scene.name, key);
-
-    let cached = if refresh {
-        None
-    } else {
-        reference::load(&path, key)
-    };
-    let was_cached = cached.is_some();
-    let stored = match cached {
-        Some(r) => {
-            progress(&format!(
-                "{}: reference ({} source elements) from the cache {}",
-                scene.name,
-                r.elements,
-                path.display()
-            ));
-            r
-        }
-        None => {
-            progress(&format!(
-                "{}: computing the reference: a ray-traced solve of {source_elements} elements, then a gather at every image sample (cached afterwards)",
-                scene.name,
-            ));
-            let t = Instant::now();
-            let r =
-                gathered::gathered_reference(device, scene, &settings, &camera, ERROR_IMAGE_SIZE)?;
-            let wall_seconds = t.elapsed().as_secs_f64();
-            progress(&format!(
-                "{}: reference solve {:.1} s, gather {:.1} s",
-                scene.name, r.solve_seconds, r.gather_seconds
-            ));
-            let r = CachedReference {
-                format: CACHE_FORMAT,
-                key: format!("{key:016x}"),
-                scene: scene.name.clone(),
-                kind: r.what,
-                max_edge: settings.source_edge,
-                elements: r.source_elements,
-                shots: r.shots,
-                converged: r.converged,
-                wall_seconds,
-                width: r.image.image.width,
-                height: r.image.image.height,
-                pixels: r.image.image.pixels,
-                shading: r.image.shading,
-            };
-            progress(&format!(
-                "{}: reference done: {} shots, {:.2} s",
-                scene.name, r.shots, r.wall_seconds
-            ));
-            reference::store(&path, &r)?;
-            r
-        }
-    };
-    let image = GatheredImage {
-        image: stored.image(),
-        shading: stored.shading.clone(),
-    };
-    Ok((
-        ReferenceInfo {
-            scene: scene.name.clone(),
-            kind: stored.kind.clone(),
-            cached: was_cached,
-            path,
-            bench_edge,
-            max_edge: stored.max_edge,
-            elements: stored.elements,
-            shots: stored.shots,
-            converged: stored.converged,
-            shading_pixels: image.shading.iter().filter(|&&m| m).count(),
-            wall_seconds: stored.wall_seconds,
-        },
-        mesh,
-        image,
-    ))
 }
 
 /// `sqrt(mean((L - L_ref)^2)) / mean(L_ref)` over the colour channels of
