@@ -3,10 +3,14 @@
 //! The reference is the same for every series of `vkrad bench` and is
 //! produced by none of them: a mesh-free image gathered
 //! ([`gathered::gathered_reference`]) from a ray-traced solution on a
-//! uniform mesh of a quarter of the bench mesh's edge (16x its elements; quick: half, 4x). The emitters' light is
-//! gathered at every one of the 4 x 4 samples of a pixel, with 1024 rays
-//! (quick: 256) from each sample to the emitters; the reflected light once
-//! at the pixel's centre, with 4 rays to every reflecting source element.
+//! uniform mesh finer than any a judged run solves: a quarter of the bench
+//! mesh's edge (16x its elements; quick: half, 4x), or three quarters of
+//! the finest default-pipeline run's edge where that is finer (on
+//! `cornell`, whose default solve has 2,704 elements: 6,592). The
+//! emitters' light is gathered at every one of the 4 x 4 samples of a
+//! pixel, with 1024 rays (quick: 256) from each sample to the emitters;
+//! the reflected light once at the pixel's centre, with 4 rays to every
+//! reflecting source element.
 //! What it shares with the judged runs, and what it does not:
 //!
 //! * its kernel is the one the ray tracer and the final gather also use:
@@ -27,12 +31,16 @@
 //!   uses), taken as constant over each source element. That solution's
 //!   error enters the reference only after one more reflection (times
 //!   rho F), but the piecewise-constant sources are the reference's own
-//!   limit: on `cornell` going from 412 to 1,648 source elements moved the
-//!   reference by 2.0% (relative RMS over the compared pixels), on `plates`
-//!   and `simple` by 0.04% and 0.03%. Differences of about 1% on `cornell`
-//!   are within the reference's own uncertainty. (Gathering the reflected
-//!   light at every sample instead of the pixel centre moved the 412-element
-//!   `cornell` reference by 0.3%, at 2.5x the cost.)
+//!   limit (an element across a shadow or a contact line has one value
+//!   for both sides), and it converges only about linearly in the
+//!   source edge: on `cornell` the reference moved by 2.0% (relative RMS
+//!   over the compared pixels) from 412 to 1,648 source elements and by
+//!   0.95% from 1,648 to 6,592; on `plates` and `simple` by 0.04% and 0.03%
+//!   from 4x to 16x the bench mesh's elements. So on `cornell` errors
+//!   below about 1% are within the reference's own uncertainty.
+//!   (Gathering the reflected light at every sample instead of the pixel
+//!   centre moved the 412-element `cornell` reference by 0.3%, at 2.5x the
+//!   cost.)
 //!
 //! It is cached as JSON in `OUT/cache/`, keyed by a hash of the scene's
 //! content (geometry, materials, camera), the source mesh, the source
@@ -196,8 +204,17 @@ pub(super) fn scene_reference(
     mesh.sanity_check(scene)
         .map_err(|e| Error::Invalid(format!("internal meshing error: {e}")))?;
     let camera = default_camera(scene);
+    // Finer than any mesh a judged run solves: the bench mesh, and the
+    // default pipeline's finest (three quarters of its edge is at least
+    // one quadtree level below it).
+    let finest_default = plan
+        .default_factors
+        .iter()
+        .fold(f32::INFINITY, |a, &f| a.min(f))
+        * mesh::default_max_edge(scene);
+    let source_edge = (bench_edge / plan.reference_edge_divisor).min(0.75 * finest_default);
     let settings = ReferenceSettings {
-        source_edge: bench_edge / plan.reference_edge_divisor,
+        source_edge,
         solve_rays: REFERENCE_SOLVE_RAYS,
         converge: REFERENCE_CONVERGE,
         emitter_rays: plan.reference_emitter_rays,
