@@ -1,5 +1,8 @@
-//! The bench chart: error against solve time, both axes logarithmic, one
-//! panel per scene, one curve per sweep, points labelled with their setting.
+//! The bench chart: error against wall time, both axes logarithmic, one
+//! panel per scene, one curve per series, points labelled with their
+//! setting. The legend says which series show raw solutions (the solve's
+//! own vertex values, timed as the solve) and which the default pipeline
+//! (final gather, timed as the whole run).
 //! Written as SVG (text left to the viewer's fonts) and PNG (text drawn with
 //! DejaVu Sans, loaded at run time; without it the PNG is skipped).
 
@@ -22,7 +25,11 @@ pub const FONT_CANDIDATES: &[&str] = &[
 
 const PANEL_WIDTH: u32 = 620;
 const HEIGHT: u32 = 600;
-const TITLE_HEIGHT: u32 = 44;
+const TITLE_HEIGHT: u32 = 92;
+/// Width of one legend entry.
+const LEGEND_STEP: i32 = 300;
+/// Under the legend: what the series are and what the reference is.
+pub const NOTE: &str = "raw: element-by-element solve to 1e-3, the solve's own vertex values (no final gather), time = solve. default: vkrad SCENE (hierarchical hemicube, discontinuity display mesh, final gather), time = whole run. Error over pixels of one lit surface.";
 const FONT: &str = "sans-serif";
 
 /// What was written: the SVG always; the PNG, or why not.
@@ -52,12 +59,24 @@ pub(crate) fn register_font() -> std::result::Result<(), String> {
         .clone()
 }
 
-/// Colour, marker and legend name of each sweep.
+/// Colour, marker and legend name of each series.
 fn style(sweep: Sweep) -> (RGBColor, &'static str) {
     match sweep {
-        Sweep::Hemicube => (RGBColor(31, 119, 180), "hemicube: resolution"),
-        Sweep::RayTrace => (RGBColor(214, 39, 40), "ray trace: rays per vertex"),
-        Sweep::ElementSize => (RGBColor(44, 160, 44), "hemicube: element count"),
+        Sweep::Hemicube => (RGBColor(31, 119, 180), "raw hemicube: resolution"),
+        Sweep::RayTrace => (RGBColor(214, 39, 40), "raw ray trace: rays per vertex"),
+        Sweep::ElementSize => (RGBColor(44, 160, 44), "raw hemicube: element count"),
+        Sweep::Default => (RGBColor(255, 127, 14), "default + final gather: edges"),
+    }
+}
+
+/// The order in which a series' points are joined (cheapest setting
+/// first), so the curve follows the sweep even where timings are noisy.
+fn sweep_order(sweep: Sweep, p: &BenchPoint) -> usize {
+    match sweep {
+        Sweep::Hemicube => p.hemicube_res.unwrap_or(0) as usize,
+        Sweep::RayTrace => p.rays.unwrap_or(0),
+        Sweep::ElementSize => p.elements,
+        Sweep::Default => p.display_elements.unwrap_or(p.elements),
     }
 }
 
@@ -80,14 +99,9 @@ fn error_floor(points: &[&BenchPoint]) -> f64 {
     }
 }
 
-/// A point's label: its setting, marked when it used the reference's own
-/// form factors (so its error is only the convergence difference).
+/// A point's label: its setting.
 fn point_label(p: &BenchPoint) -> String {
-    if p.same_as_reference {
-        format!("{} (= ref. res)", p.setting)
-    } else {
-        p.setting.clone()
-    }
+    p.setting.clone()
 }
 
 /// Pads a positive range by a factor on both sides (log axes).
@@ -128,15 +142,19 @@ fn draw<DB: DrawingBackend>(
     let (title_area, body) = root.split_vertically(TITLE_HEIGHT);
     title_area.draw(&Text::new(
         title.to_owned(),
-        (16, 12),
+        (16, 10),
         (FONT, 22).into_font().color(&BLACK),
     ))?;
-    // One legend for all panels, top right: the sweeps are the same in each.
-    let (width, _) = title_area.dim_in_pixel();
-    let mut x = width as i32 - 3 * 215 - 10;
+    title_area.draw(&Text::new(
+        NOTE,
+        (16, 68),
+        (FONT, 13).into_font().color(&BLACK),
+    ))?;
+    // One legend for all panels: the series are the same in each.
+    let mut x = 16;
     for sweep in Sweep::ALL {
         let (colour, legend) = style(sweep);
-        let y = 22;
+        let y = 50;
         title_area.draw(&PathElement::new(
             vec![(x, y), (x + 26, y)],
             colour.stroke_width(2),
@@ -147,7 +165,7 @@ fn draw<DB: DrawingBackend>(
             (x + 32, y - 7),
             (FONT, 14).into_font().color(&BLACK),
         ))?;
-        x += 215;
+        x += LEGEND_STEP;
     }
     let names = scene_names(points);
     let panels = body.split_evenly((1, names.len().max(1)));
@@ -168,7 +186,7 @@ fn draw<DB: DrawingBackend>(
             .unwrap_or(0);
         let mut chart = ChartBuilder::on(panel)
             .caption(
-                format!("{name} ({elements} elements)"),
+                format!("{name} (raw: {elements} elements)"),
                 (FONT, 19).into_font(),
             )
             .margin(12)
@@ -177,7 +195,7 @@ fn draw<DB: DrawingBackend>(
             .build_cartesian_2d(x_range.log_scale(), y_range.log_scale())?;
         chart
             .configure_mesh()
-            .x_desc("solve wall time (s)")
+            .x_desc("wall time (s)")
             .y_desc(format!(
                 "relative RMS image error vs {}",
                 short_reference(&reference)
@@ -200,13 +218,7 @@ fn draw<DB: DrawingBackend>(
             if series.is_empty() {
                 continue;
             }
-            // In the order of the swept setting (cheapest setting first), so
-            // the curve follows the sweep even where timings are noisy.
-            series.sort_by_key(|p| match sweep {
-                Sweep::Hemicube => p.hemicube_res.unwrap_or(0) as usize,
-                Sweep::RayTrace => p.rays.unwrap_or(0),
-                Sweep::ElementSize => p.elements,
-            });
+            series.sort_by_key(|p| sweep_order(sweep, p));
             let xy = |p: &BenchPoint| (p.wall_seconds.max(1e-3), p.error.max(floor));
             chart.draw_series(LineSeries::new(
                 series.iter().map(|p| xy(p)),
@@ -229,6 +241,7 @@ fn draw<DB: DrawingBackend>(
                 Sweep::Hemicube => (-8, -16),
                 Sweep::RayTrace => (6, 5),
                 Sweep::ElementSize => (7, -6),
+                Sweep::Default => (8, 4),
             };
             let n = series.len();
             let mut order: Vec<usize> = (0..n).collect();
@@ -262,8 +275,12 @@ fn draw<DB: DrawingBackend>(
     Ok(())
 }
 
-/// `hemicube 1024px, converge 1e-4` -> `hemicube 1024px`.
+/// `per-pixel gather (...) from ...` -> `per-pixel gather`;
+/// `hemicube 1024px, converge 1e-4` -> `hemicube 1024px ref.`.
 fn short_reference(kind: &str) -> String {
+    if kind.starts_with("per-pixel gather") {
+        return "per-pixel gather".into();
+    }
     let head = kind.split(',').next().unwrap_or(kind).trim();
     if head.is_empty() {
         "reference".into()
@@ -290,12 +307,13 @@ where
         Sweep::Hemicube => Circle::new(at, 4, style).into_dyn(),
         Sweep::RayTrace => TriangleMarker::new(at, 5, style).into_dyn(),
         Sweep::ElementSize => Cross::new(at, 5, style).into_dyn(),
+        Sweep::Default => Circle::new(at, 6, style).into_dyn(),
     }
 }
 
 /// Log-axis tick labels at 1, 2 and 5 times a power of ten only (plotters
 /// puts a tick at every integer multiple, far too many to label).
-fn tick_label(v: f64, scientific: bool) -> String {
+pub(crate) fn tick_label(v: f64, scientific: bool) -> String {
     if v.is_nan() || v <= 0.0 {
         return String::new();
     }
@@ -408,22 +426,24 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif">
 <rect width="100%" height="100%" fill="white"/>
 <text x="16" y="30" font-size="22">{}</text>
+<text x="16" y="80" font-size="13">{}</text>
 "#,
-        xml(title)
+        xml(title),
+        xml(NOTE)
     );
-    let mut lx = width as i32 - 3 * 215 - 10;
+    let mut lx = 16;
     for sweep in Sweep::ALL {
         let (c, legend) = style(sweep);
         let colour = format!("rgb({},{},{})", c.0, c.1, c.2);
         let _ = writeln!(
             svg,
-            r#"<line x1="{lx}" y1="22" x2="{}" y2="22" stroke="{colour}" stroke-width="2"/><circle cx="{}" cy="22" r="4" fill="{colour}"/><text x="{}" y="27" font-size="14">{}</text>"#,
+            r#"<line x1="{lx}" y1="50" x2="{}" y2="50" stroke="{colour}" stroke-width="2"/><circle cx="{}" cy="50" r="4" fill="{colour}"/><text x="{}" y="55" font-size="14">{}</text>"#,
             lx + 26,
             lx + 13,
             lx + 32,
             xml(legend)
         );
-        lx += 215;
+        lx += LEGEND_STEP;
     }
     for (i, name) in scene_names(points).iter().enumerate() {
         let scene_points: Vec<&BenchPoint> = points.iter().filter(|p| &p.scene == name).collect();
@@ -450,7 +470,7 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
             svg,
             r#"<rect x="{left}" y="{top}" width="{}" height="{}" fill="none" stroke="black"/>
 <text x="{}" y="{}" font-size="19" text-anchor="middle">{}</text>
-<text x="{}" y="{}" font-size="14" text-anchor="middle">solve wall time (s)</text>
+<text x="{}" y="{}" font-size="14" text-anchor="middle">wall time (s)</text>
 <text transform="translate({},{}) rotate(-90)" font-size="14" text-anchor="middle">relative RMS image error vs {}</text>"#,
             right - left,
             bottom - top,
@@ -492,11 +512,7 @@ pub fn plain_svg(points: &[BenchPoint], title: &str) -> String {
                 .copied()
                 .filter(|p| p.method == sweep)
                 .collect();
-            series.sort_by_key(|p| match sweep {
-                Sweep::Hemicube => p.hemicube_res.unwrap_or(0) as usize,
-                Sweep::RayTrace => p.rays.unwrap_or(0),
-                Sweep::ElementSize => p.elements,
-            });
+            series.sort_by_key(|p| sweep_order(sweep, p));
             let path: Vec<String> = series
                 .iter()
                 .map(|p| format!("{:.1},{:.1}", fx(p.wall_seconds), fy(p.error)))
@@ -539,8 +555,9 @@ mod tests {
             converged: true,
             wall_seconds: t,
             error,
-            reference: "hemicube 1024px, converge 1e-4".into(),
-            same_as_reference: false,
+            display_elements: None,
+            gathered: method.gathered(),
+            reference: "per-pixel gather, 1024 rays".into(),
             repeats: 1,
         }
     }
@@ -565,7 +582,7 @@ mod tests {
         let svg = plain_svg(&points, "title & more");
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains("a&lt;b") && svg.contains("title &amp; more"));
-        assert!(svg.contains("solve wall time (s)"));
+        assert!(svg.contains("wall time (s)") && svg.contains("final gather"));
         assert!(svg.contains(">0.5<") && svg.contains(">2<"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
     }

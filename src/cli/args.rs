@@ -41,9 +41,10 @@ pub(crate) enum Command {
     Formfactors(FormFactorArgs),
     /// Write the element mesh alone (.obj or .ply), with mesher statistics.
     Mesh(MeshOnlyArgs),
-    /// Speed against accuracy of the form-factor methods: sweeps hemicube
-    /// resolution, rays and element size, measures solve time and image error
-    /// against a reference, writes bench.json, bench.csv, bench.svg, bench.png.
+    /// Image error against wall time: sweeps hemicube resolution, rays and
+    /// element size (raw solutions) and runs the default pipeline, against a
+    /// mesh-free gathered reference; writes bench.json, bench.csv,
+    /// bench.svg, bench.png.
     Bench(BenchArgs),
 }
 
@@ -272,10 +273,10 @@ pub(crate) struct RenderArgs {
 
 #[derive(Args)]
 pub(crate) struct BenchArgs {
-    /// Scenes: OBJ paths, built-in names, or `plates` (an unoccluded scene
-    /// with an analytic reference). Default: plates, simple, cornell.
+    /// Scenes: OBJ paths, built-in names, or `plates` (the bench's
+    /// generated unoccluded scene). Default: plates, simple, cornell.
     pub(crate) scenes: Vec<String>,
-    /// A short sweep (about 10 s on lavapipe), as CI runs it.
+    /// A short sweep (about a minute on lavapipe), as CI runs it.
     #[arg(long)]
     pub(crate) quick: bool,
     /// Folder for the results and the reference cache.
@@ -287,9 +288,10 @@ pub(crate) struct BenchArgs {
     /// Recompute the references even when cached.
     #[arg(long)]
     pub(crate) refresh_reference: bool,
-    /// Instead: image error against element count for the meshers (uniform,
-    /// discontinuity + refinement, discontinuity a posteriori) on SCENE
-    /// (default simple): meshers.{json,svg,png}.
+    /// Instead: image error against elements and against wall time for the
+    /// meshers (uniform, discontinuity + refinement, discontinuity a
+    /// posteriori, and the default pipeline) on SCENE (default simple):
+    /// meshers.{json,svg,png}.
     #[arg(long)]
     pub(crate) meshers: bool,
     #[command(flatten)]

@@ -178,8 +178,8 @@ pub(crate) fn print_mesher_bench(report: &MesherReport, device: &str, seconds: f
     );
     for p in &report.points {
         println!(
-            "  {:<36} {:<16} {:>7} elements  error {:.4}",
-            p.mesher, p.setting, p.elements, p.error
+            "  {:<36} {:<16} {:>7} elements  error {:.4}  {:>7.2} s",
+            p.mesher, p.setting, p.elements, p.error, p.wall_seconds
         );
     }
     println!("  wrote     {}", report.json.display());
