@@ -103,7 +103,8 @@ pub struct ReferenceInfo {
 
 /// Bumped whenever the cached data or its meaning changes. 2: the
 /// per-pixel gathered reference with its shading mask (1 was a solve's
-/// image on the bench mesh).
+/// image on the bench mesh). 3: its samples at the render's jittered
+/// pixel samples (2 took a 4x4 grid).
 pub const CACHE_FORMAT: u32 = 3;
 
 /// A reference as stored in the cache.
