@@ -361,6 +361,7 @@ impl DeviceArgs {
         DeviceOptions {
             selector: self.device.clone(),
             validate: self.validate,
+            profile: false,
         }
     }
 }
