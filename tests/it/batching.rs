@@ -182,3 +182,30 @@ fn cpu_methods_refuse_a_batch() {
     assert!(solve_batched(&device, &s, &mesh, &settings, 2, |_| true).is_err());
     assert!(solve_batched(&device, &s, &mesh, &settings, 1, |_| true).is_ok());
 }
+
+/// Each hemicube face draws only the triangles it may show (index lists
+/// culled on the CPU, `gpu/shooting/cull.rs`): the item buffer, and so every
+/// form factor, is the same bit for bit as drawing every triangle into
+/// every face, at element centres all over the Cornell box.
+#[test]
+fn face_culling_changes_no_form_factor() {
+    let device = device();
+    let scene = vkrad::scene::load_builtin("cornell").unwrap().unwrap();
+    let mesh = vkrad::mesh::uniform(&scene, scene.extent() / 16.0);
+    let gpu = vkrad::solve::GpuMesh::new(&scene, &mesh);
+    let hemicube = vkrad::formfactor::hemicube::Hemicube::new(128).unwrap();
+    let mut engine = gpu.engine(&device, hemicube).unwrap();
+    let mut compared = 0;
+    for e in mesh.elements.iter().step_by(97) {
+        let faces = hemicube.face_view_proj(e.centre, e.normal, 1e-4 * e.area.sqrt());
+        engine.face_culling = true;
+        let culled = engine.form_factors(&faces).unwrap();
+        engine.face_culling = false;
+        let full = engine.form_factors(&faces).unwrap();
+        assert_eq!(culled, full, "element at {}", e.centre);
+        assert!(full.iter().sum::<f64>() > 0.99);
+        compared += 1;
+    }
+    assert!(compared >= 15);
+    assert_validation_clean(&device);
+}

@@ -1,7 +1,7 @@
 //! A batch of shots in one submission: up to [`MAX_BATCH`] shooters, each
-//! with its own parameter slot, recorded one after the other (item buffer
-//! -> reduction -> region correction -> shooting), and one unshot readback
-//! at the end.
+//! with its own parameter slot, recorded one after the other (item buffer,
+//! each face drawing only the triangles it may show -> reduction -> region
+//! correction -> shooting), and one unshot readback at the end.
 //!
 //! The shooters share the item-buffer atlas and the form-factor buffer:
 //! each shooter's frame waits for the previous one's scan and shooting
@@ -20,7 +20,7 @@
 
 use ash::vk;
 
-use super::{Shooter, ShootingEngine, Submission};
+use super::{FaceDraws, Shooter, ShootingEngine, Submission};
 use crate::error::{Error, Result};
 use crate::gpu::commands::{barriers, buffer_barrier};
 
@@ -54,19 +54,17 @@ impl ShootingEngine {
         for (slot, shooter) in shooters.iter().enumerate() {
             self.write_params(slot, shooter, batched)?;
         }
-        self.record_batch(
-            &shooters
-                .iter()
-                .map(|s| s.region.is_some())
-                .collect::<Vec<_>>(),
-        )?;
+        let frames: Vec<[glam::Mat4; 5]> = shooters.iter().map(|s| s.faces).collect();
+        let draws = self.cull_faces(&frames)?;
+        let regions: Vec<bool> = shooters.iter().map(|s| s.region.is_some()).collect();
+        self.record_batch(&regions, &draws)?;
         self.submit(Submission::Batch)?;
         self.readback.read(self.element_count as usize)
     }
 
     /// Records the batch whose shooter `k` is a region shot when
     /// `regions[k]` (its parameters are in slot `k`).
-    fn record_batch(&mut self, regions: &[bool]) -> Result<()> {
+    fn record_batch(&mut self, regions: &[bool], draws: &[FaceDraws]) -> Result<()> {
         let cmd = self.batch_cmds.begin()?;
         let mut profiler = self.batch_profiler.take();
         if let Some(p) = profiler.as_mut() {
@@ -82,7 +80,7 @@ impl ShootingEngine {
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
         for (slot, &region) in regions.iter().enumerate() {
-            self.record_hemicube(cmd, &mut profiler, slot);
+            self.record_hemicube(cmd, &mut profiler, slot, draws[slot]);
             if region {
                 barriers(
                     &self.device,

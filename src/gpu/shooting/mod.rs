@@ -7,8 +7,10 @@
 //! Shots go in batches ([`ShootingEngine::shoot`], `batch.rs`): up to
 //! [`MAX_BATCH`] shooters recorded one after the other into one command
 //! buffer, each with its own slot of the parameter buffer, and one unshot
-//! readback at the end. The form-factor and uploaded-shot command buffers
-//! are recorded once; their submissions only rewrite the parameters.
+//! readback at the end. Each face draws only the triangles it may show
+//! (`cull.rs`, index lists written by the CPU per shot). The uploaded-shot
+//! command buffer is recorded once; the batch and form-factor ones are
+//! recorded per submission (tens of commands).
 
 use std::sync::Arc;
 
@@ -27,10 +29,12 @@ use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::{Error, Result};
 
 mod batch;
+mod cull;
 mod params;
 mod setup;
 mod upload_shot;
 pub use batch::MAX_BATCH;
+use cull::FaceCull;
 pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
@@ -140,9 +144,20 @@ pub struct ShootingEngine {
     batch_profiler: Option<GpuProfiler>,
     ff_profiler: Option<GpuProfiler>,
     upload_profiler: Option<GpuProfiler>,
+    /// Per face, the triangles it may show (`cull.rs`).
+    cull: FaceCull,
+    /// Host-visible index lists of the culled faces (grown as needed).
+    indices: Option<Buffer>,
+    /// Draw only the triangles each face may show (default). Off: every
+    /// triangle into every face, as before; the item buffer is the same.
+    pub face_culling: bool,
     /// Time per stage, accumulated over all submissions.
     pub times: StageTimes,
 }
+
+/// Per face: (first index, index count) in the engine's index buffer;
+/// `None`: draw every triangle, unindexed.
+type FaceDraws = Option<[(u32, u32); 5]>;
 
 impl ShootingEngine {
     pub fn new(device: &Arc<Device>, inputs: &ShootingInputs) -> Result<Self> {
@@ -297,9 +312,11 @@ impl ShootingEngine {
             batch_profiler: GpuProfiler::new(device, "shot-batch timestamps", batch::TIMESTAMPS)?,
             ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
             upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
+            cull: FaceCull::new(inputs.triangles),
+            indices: None,
+            face_culling: true,
             times: StageTimes::default(),
         };
-        engine.record_form_factors()?;
         engine.record_upload_shoot()?;
         Ok(engine)
     }
@@ -334,6 +351,7 @@ impl ShootingEngine {
         cmd: vk::CommandBuffer,
         profiler: &mut Option<GpuProfiler>,
         slot: usize,
+        draws: FaceDraws,
     ) {
         let d = &self.device;
         let raw = &d.raw;
@@ -367,6 +385,9 @@ impl ShootingEngine {
             raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
             self.bind_set(cmd, vk::PipelineBindPoint::GRAPHICS, slot);
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self._vertices.raw()], &[0]);
+            if let (Some(_), Some(indices)) = (draws, &self.indices) {
+                raw.cmd_bind_index_buffer(cmd, indices.raw(), 0, vk::IndexType::UINT32);
+            }
             for (face, &(x, y, fw, fh)) in self.face_viewports.iter().enumerate() {
                 set_viewport(d, cmd, (x, y, fw, fh));
                 raw.cmd_push_constants(
@@ -376,7 +397,17 @@ impl ShootingEngine {
                     0,
                     &(face as u32).to_ne_bytes(),
                 );
-                raw.cmd_draw(cmd, self.triangle_vertices, 1, 0, 0);
+                match draws {
+                    // Indices < triangle_vertices (cull.rs), written by the
+                    // host before the submission.
+                    Some(draws) if self.indices.is_some() => {
+                        let (first, count) = draws[face];
+                        if count > 0 {
+                            raw.cmd_draw_indexed(cmd, count, 1, first, 0, 0);
+                        }
+                    }
+                    _ => raw.cmd_draw(cmd, self.triangle_vertices, 1, 0, 0),
+                }
             }
             raw.cmd_end_rendering(cmd);
         }
@@ -475,13 +506,13 @@ impl ShootingEngine {
         }
     }
 
-    fn record_form_factors(&mut self) -> Result<()> {
+    fn record_form_factors(&mut self, draws: FaceDraws) -> Result<()> {
         let cmd = self.ff_cmds.begin()?;
         let mut profiler = self.ff_profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
         }
-        self.record_hemicube(cmd, &mut profiler, 0);
+        self.record_hemicube(cmd, &mut profiler, 0, draws);
         self.record_copy_to_host(cmd, self.ff.raw(), 4);
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
@@ -582,9 +613,41 @@ impl ShootingEngine {
             },
             false,
         )?;
+        let draws = self.cull_faces(&[*face_view_proj])?;
+        self.record_form_factors(draws[0])?;
         self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
         Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
+    }
+
+    /// The triangles each face of each of `frames` may show, written to
+    /// the index buffer (`None` per frame when `face_culling` is off).
+    fn cull_faces(&mut self, frames: &[[glam::Mat4; 5]]) -> Result<Vec<FaceDraws>> {
+        if !self.face_culling {
+            return Ok(vec![None; frames.len()]);
+        }
+        let start = std::time::Instant::now();
+        let mut indices = Vec::new();
+        let draws = frames
+            .iter()
+            .map(|faces| Some(self.cull.cull(faces, &mut indices)))
+            .collect();
+        let bytes = 4 * indices.len().max(1) as u64;
+        if self.indices.as_ref().is_none_or(|b| b.size() < bytes) {
+            // The previous submission was waited for: nothing uses the old one.
+            self.indices = Some(Buffer::new(
+                &self.device,
+                "hemicube face index lists",
+                bytes + bytes / 2,
+                vk::BufferUsageFlags::INDEX_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        if let Some(buffer) = self.indices.as_mut() {
+            buffer.write(0, &indices)?;
+        }
+        self.times.add("face culling (CPU)", start.elapsed());
+        Ok(draws)
     }
 
     /// Submits one of the recorded command buffers, waits, and adds its
