@@ -9,9 +9,14 @@
 
 use std::collections::HashMap;
 
+use ash::vk;
 use glam::{Mat4, Vec3};
+use gpu_allocator::MemoryLocation;
 
+use super::{FaceDraws, ShootingEngine};
+use crate::error::Result;
 use crate::gpu::item::ItemVertex;
+use crate::gpu::memory::Buffer;
 
 /// The geometry the culling needs: shared corner positions (each is
 /// transformed once per face) and every triangle's three corners.
@@ -82,6 +87,38 @@ impl FaceCull {
             draws[face] = (first, indices.len() as u32 - first);
         }
         draws
+    }
+}
+
+impl ShootingEngine {
+    /// The triangles each face of each of `frames` may show, written to
+    /// the index buffer (`None` per frame when `face_culling` is off).
+    pub(super) fn cull_faces(&mut self, frames: &[[glam::Mat4; 5]]) -> Result<Vec<FaceDraws>> {
+        if !self.face_culling {
+            return Ok(vec![None; frames.len()]);
+        }
+        let start = std::time::Instant::now();
+        let mut indices = Vec::new();
+        let draws = frames
+            .iter()
+            .map(|faces| Some(self.cull.cull(faces, &mut indices)))
+            .collect();
+        let bytes = 4 * indices.len().max(1) as u64;
+        if self.indices.as_ref().is_none_or(|b| b.size() < bytes) {
+            // The previous submission was waited for: nothing uses the old one.
+            self.indices = Some(Buffer::new(
+                &self.device,
+                "hemicube face index lists",
+                bytes + bytes / 2,
+                vk::BufferUsageFlags::INDEX_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        if let Some(buffer) = self.indices.as_mut() {
+            buffer.write(0, &indices)?;
+        }
+        self.times.add("face culling (CPU)", start.elapsed());
+        Ok(draws)
     }
 }
 

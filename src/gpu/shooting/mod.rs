@@ -1,8 +1,8 @@
 //! The shooting passes: hemicube item buffer (5 faces into one atlas),
 //! form-factor reduction (compute, integer atomics), the exact-times-
 //! visibility correction of a region shot (compute, `ff_node.comp`) and
-//! shooting (compute), all on the GPU; the CPU only picks the shooter and
-//! reads unshot radiosity back.
+//! shooting (compute), all on the GPU; the CPU picks the shooters, lists
+//! the triangles each face may show and reads unshot radiosity back.
 //!
 //! Shots go in batches ([`ShootingEngine::shoot`], `batch.rs`): up to
 //! [`MAX_BATCH`] shooters recorded one after the other into one command
@@ -157,7 +157,7 @@ pub struct ShootingEngine {
 
 /// Per face: (first index, index count) in the engine's index buffer;
 /// `None`: draw every triangle, unindexed.
-type FaceDraws = Option<[(u32, u32); 5]>;
+pub(super) type FaceDraws = Option<[(u32, u32); 5]>;
 
 impl ShootingEngine {
     pub fn new(device: &Arc<Device>, inputs: &ShootingInputs) -> Result<Self> {
@@ -618,36 +618,6 @@ impl ShootingEngine {
         self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
         Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
-    }
-
-    /// The triangles each face of each of `frames` may show, written to
-    /// the index buffer (`None` per frame when `face_culling` is off).
-    fn cull_faces(&mut self, frames: &[[glam::Mat4; 5]]) -> Result<Vec<FaceDraws>> {
-        if !self.face_culling {
-            return Ok(vec![None; frames.len()]);
-        }
-        let start = std::time::Instant::now();
-        let mut indices = Vec::new();
-        let draws = frames
-            .iter()
-            .map(|faces| Some(self.cull.cull(faces, &mut indices)))
-            .collect();
-        let bytes = 4 * indices.len().max(1) as u64;
-        if self.indices.as_ref().is_none_or(|b| b.size() < bytes) {
-            // The previous submission was waited for: nothing uses the old one.
-            self.indices = Some(Buffer::new(
-                &self.device,
-                "hemicube face index lists",
-                bytes + bytes / 2,
-                vk::BufferUsageFlags::INDEX_BUFFER,
-                MemoryLocation::CpuToGpu,
-            )?);
-        }
-        if let Some(buffer) = self.indices.as_mut() {
-            buffer.write(0, &indices)?;
-        }
-        self.times.add("face culling (CPU)", start.elapsed());
-        Ok(draws)
     }
 
     /// Submits one of the recorded command buffers, waits, and adds its
