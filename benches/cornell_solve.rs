@@ -13,6 +13,11 @@
 //!
 //! `--batch K` (default 8): the batched rows' shooters per submission; the
 //! unbatched rows take 1.
+//!
+//! On lavapipe the "GPU" is this process's threads, so wall time follows
+//! the machine's load; each run also prints the process's CPU time (user +
+//! system, Linux `/proc/self/stat`), the work a shot costs whatever else
+//! runs.
 
 use std::time::Instant;
 
@@ -79,23 +84,28 @@ fn run(
 ) {
     let mut walls = vec![];
     let mut rates = vec![];
+    let mut cpus = vec![];
     for run in 0..runs {
-        let t = Instant::now();
+        let (t, c) = (Instant::now(), cpu_seconds());
         let sol = solve_batched(plain, scene, mesh, settings, batch, |_| true).expect("solve");
         let wall = t.elapsed().as_secs_f64();
+        let cpu = cpu_seconds() - c;
         println!(
-            "  run {run}: {} shots in {wall:.2} s = {:.1} shots/s, residual {:.2e}",
+            "  run {run}: {} shots in {wall:.2} s = {:.1} shots/s, residual {:.2e}, CPU {cpu:.2} s = {:.2} ms per shot",
             sol.shots,
             sol.shots as f64 / wall,
-            sol.residual
+            sol.residual,
+            1e3 * cpu / sol.shots.max(1) as f64
         );
         walls.push(wall);
         rates.push(sol.shots as f64 / wall);
+        cpus.push(1e3 * cpu / sol.shots.max(1) as f64);
     }
     println!(
-        "  median: {:.2} s per solve, {:.1} shots/s ({} runs, no timestamps)",
+        "  median: {:.2} s per solve, {:.1} shots/s, CPU {:.2} ms per shot ({} runs, no timestamps)",
         median(walls),
         median(rates),
+        median(cpus),
         runs
     );
     let t = Instant::now();
@@ -120,5 +130,26 @@ fn run(
             100.0 * t / total,
             1e3 * t / sol.shots.max(1) as f64
         );
+    }
+}
+
+/// This process's CPU time so far (user + system), in seconds; 0 where
+/// `/proc/self/stat` cannot be read.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    // Fields after the command name (which may hold spaces, in parentheses):
+    // utime and stime are the 12th and 13th, in clock ticks (100 per second
+    // on Linux).
+    let fields: Vec<&str> = stat
+        .rsplit_once(')')
+        .map_or("", |(_, rest)| rest)
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| fields.get(i).and_then(|f| f.parse::<f64>().ok());
+    match (ticks(11), ticks(12)) {
+        (Some(u), Some(s)) => (u + s) / 100.0,
+        _ => 0.0,
     }
 }
