@@ -20,6 +20,7 @@ fn main() {
     let device = Device::new(&DeviceOptions {
         selector,
         validate: false,
+        ..Default::default()
     })
     .expect("a Vulkan device");
     println!(

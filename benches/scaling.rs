@@ -28,6 +28,7 @@ fn main() {
     let device = Device::new(&DeviceOptions {
         selector: device_selector(),
         validate: false,
+        ..Default::default()
     })
     .expect("a Vulkan device");
     let scene = vkrad::scene::load_builtin("cornell")

@@ -1,5 +1,6 @@
-// Per-shot parameters, written by the CPU before each submission
-// (std140; mirrors `ShotParams` in src/gpu/shooting/mod.rs).
+// Per-shot parameters, written by the CPU before each submission, one
+// slot per shooter of a batch (a dynamic uniform buffer offset picks it)
+// (std140; mirrors `ShotParams` in src/gpu/shooting/params.rs).
 layout(set = 0, binding = 0, std140) uniform ShotParams {
     // World -> clip for the five hemicube faces: top, then the four sides.
     mat4 face_view_proj[5];
@@ -11,7 +12,9 @@ layout(set = 0, binding = 0, std140) uniform ShotParams {
     uint mode;
     // Item-buffer pixels of the hemicube (its resolution, for ff_node).
     uint hemicube_pixels;
-    uint pad0;
+    // 1: the shooter shares its submission with others and gives away the
+    // unshot radiosity of the batch's snapshot (shoot.comp); 0: all of it.
+    uint subtract_snapshot;
     // The shooter's elements: ranks [x, y) (the shooting hierarchy's order).
     uvec4 shooter_ranks;
     // The shooting region (mode 1): outline corners (xyz), counter-clockwise

@@ -258,7 +258,9 @@ pub(crate) struct RenderArgs {
     /// Skip the mesh sanity check (orientation, planes, area, T-junctions).
     #[arg(long)]
     pub(crate) no_check_mesh: bool,
-    /// Print the GPU time per pass (Vulkan timestamps: count, total, mean, share).
+    /// Print the GPU time per pass (Vulkan timestamps: count, total, mean,
+    /// share). Only then are timestamps written; without it each submission
+    /// is timed once on the CPU.
     #[arg(long)]
     pub(crate) profile: bool,
     /// Write settings, results and per-pass timings as JSON.
@@ -369,6 +371,7 @@ impl DeviceArgs {
         DeviceOptions {
             selector: self.device.clone(),
             validate: self.validate,
+            profile: false,
         }
     }
 }

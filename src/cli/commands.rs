@@ -49,7 +49,10 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
-    job.device = args.gpu.options();
+    job.device = DeviceOptions {
+        profile: args.profile,
+        ..args.gpu.options()
+    };
     job.max_edge = args.mesh.max_edge;
     job.mesher = args.mesh.mesher();
     job.dm_res = args.mesh.dm_res;

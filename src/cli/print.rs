@@ -106,8 +106,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     let total = r.gpu_times.total().as_secs_f64();
     let source = if r.gpu_times.gpu {
         "GPU timestamps"
-    } else {
+    } else if profile {
         "CPU timers: this device has no timestamp queries"
+    } else {
+        "CPU timers per submission"
     };
     if profile {
         println!("  passes    ({source})");

@@ -40,6 +40,10 @@ pub struct DeviceOptions {
     pub selector: Option<String>,
     /// Enable the Khronos validation layer and collect its errors.
     pub validate: bool,
+    /// Time every GPU pass with timestamp queries (`--profile`). Off: no
+    /// query is written or read back, and each submission is timed once on
+    /// the CPU.
+    pub profile: bool,
 }
 
 /// One physical device as `vkrad devices` lists it.
@@ -340,6 +344,8 @@ pub struct Device {
     pub limits: vk::PhysicalDeviceLimits,
     /// Nanoseconds per timestamp tick; `None` when the queue has no timestamps.
     pub timestamp_period_ns: Option<f64>,
+    /// Whether the passes write timestamps ([`DeviceOptions::profile`]).
+    pub profile: bool,
 }
 
 impl Device {
@@ -353,13 +359,14 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info)
+        Self::create(instance, physical, info, options.profile)
     }
 
     fn create(
         instance: Arc<Instance>,
         physical: vk::PhysicalDevice,
         info: DeviceInfo,
+        profile: bool,
     ) -> Result<Arc<Self>> {
         let queue_family = instance
             .queue_family(physical)
@@ -453,6 +460,7 @@ impl Device {
             info,
             limits: props.limits,
             timestamp_period_ns,
+            profile,
         }))
     }
 

@@ -1,5 +1,6 @@
-//! Per-stage GPU timings from Vulkan timestamp queries, with CPU timers as
-//! the fallback on devices without timestamps.
+//! Per-stage GPU timings from Vulkan timestamp queries when profiling is
+//! asked for (`--profile`, [`super::DeviceOptions::profile`]), with CPU
+//! timers per submission otherwise and on devices without timestamps.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -50,9 +51,11 @@ pub struct GpuProfiler {
 }
 
 impl GpuProfiler {
-    /// `None` when the device's queue has no timestamp support.
+    /// `None` unless profiling was asked for ([`Device::profile`]) and the
+    /// device's queue has timestamps: without it the passes write no query
+    /// and their callers time each submission on the CPU.
     pub fn new(device: &Arc<Device>, name: &str, capacity: u32) -> Result<Option<Self>> {
-        let Some(period_ns) = device.timestamp_period_ns else {
+        let Some(period_ns) = device.timestamp_period_ns.filter(|_| device.profile) else {
             return Ok(None);
         };
         let info = vk::QueryPoolCreateInfo::default()

@@ -15,6 +15,6 @@ pub mod vertex_gather;
 
 pub use hierarchy::{HierarchyRule, ShooterTree};
 pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};
-pub use progressive::{solve, Progress, Shooting, SolveSettings};
+pub use progressive::{default_batch, solve, solve_batched, Progress, Shooting, SolveSettings};
 pub use shoot::{CpuFormFactors, FormFactorMethod, GpuMesh, Shots};
 pub use solution::{area_mean, Solution};

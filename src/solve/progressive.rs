@@ -2,15 +2,22 @@
 //! the element with the most unshot power, [`Shots`] shoots it, the heap is
 //! re-keyed from the unshot radiosity read back, until the residual is
 //! below the target.
+//!
+//! Shots go in batches (Southwell with blocks): the heap's top shooters,
+//! disjoint, are picked at once from the unshot radiosity read back last
+//! and shot in one GPU submission, each carrying the unshot light it held
+//! at the pick (what earlier shooters of the batch send it stays unshot for
+//! a later batch); one readback re-keys the heap. See [`solve_batched`].
 
 use std::sync::Arc;
 use std::time::Instant;
 
 use super::heap::IndexedMaxHeap;
-use super::hierarchy::HierarchyRule;
+use super::hierarchy::{HierarchyRule, ShooterTree, MAX_NODE_VERTICES};
 use super::shoot::{FormFactorMethod, GpuMesh, Shots};
 use super::solution::Solution;
 use crate::error::{Error, Result};
+use crate::gpu::shooting::MAX_BATCH;
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -65,6 +72,34 @@ impl Default for SolveSettings {
     }
 }
 
+/// The node that shoots for heap top `top` in a batch that already holds
+/// `taken`: `grown`, the hierarchy's pick, unless it contains one of them
+/// (nodes are nested or disjoint, and `top` lies in none of them); then the
+/// highest node on the way from `top`'s leaf up to `grown` that contains
+/// none (every such node of at most [`MAX_NODE_VERTICES`] corners passed
+/// the same rule), at worst the leaf.
+fn clear_of(tree: &ShooterTree, top: usize, grown: u32, taken: &[u32]) -> u32 {
+    let overlaps = |n: u32| {
+        let r = &tree.nodes[n as usize].range;
+        taken.iter().any(|&t| {
+            let q = &tree.nodes[t as usize].range;
+            r.start < q.end && q.start < r.end
+        })
+    };
+    if !overlaps(grown) {
+        return grown;
+    }
+    let mut best = tree.leaf[top];
+    let mut n = tree.nodes[best as usize].parent;
+    while n != u32::MAX && n != grown && !overlaps(n) {
+        if tree.nodes[n as usize].polygon.len() <= MAX_NODE_VERTICES {
+            best = n;
+        }
+        n = tree.nodes[n as usize].parent;
+    }
+    best
+}
+
 /// Scalar power of an rgb radiosity over an area: the mean channel.
 fn power(rgb: [f32; 4], area: f32) -> f64 {
     (rgb[0] as f64 + rgb[1] as f64 + rgb[2] as f64) / 3.0 * area as f64
@@ -102,16 +137,55 @@ pub fn share_after_passes(share: f64, return_ratio: f64, passes: usize) -> f64 {
     share * return_ratio.clamp(0.0, 0.999).powi(passes.min(64) as i32)
 }
 
+/// The shooters per submission [`solve`] takes: [`MAX_BATCH`] with the GPU
+/// hemicube; one with the CPU methods (their form factors are computed per
+/// shooter on the CPU, so there is no submission to share).
+pub fn default_batch(method: FormFactorMethod) -> usize {
+    match method {
+        FormFactorMethod::Hemicube => MAX_BATCH,
+        _ => 1,
+    }
+}
+
 /// Solves the scene by progressive refinement until the residual falls
 /// below `settings.converge` or `settings.max_shots` shots were made, or
-/// `on_progress` returns false (an interrupt).
+/// `on_progress` returns false (an interrupt). Shoots
+/// [`default_batch`] shooters per submission.
 pub fn solve(
     device: &Arc<Device>,
     scene: &Scene,
     mesh: &Mesh,
     settings: &SolveSettings,
+    on_progress: impl FnMut(&Progress) -> bool,
+) -> Result<Solution> {
+    solve_batched(
+        device,
+        scene,
+        mesh,
+        settings,
+        default_batch(settings.method),
+        on_progress,
+    )
+}
+
+/// [`solve`] with up to `batch` shooters per GPU submission (1 to
+/// [`MAX_BATCH`]; the CPU methods take 1). The stop rules are checked after
+/// every batch, so a batched solve may shoot up to `batch - 1` shots past
+/// the point where one shot at a time would stop (never past
+/// `max_shots`); `Solution::residual_history` has one entry per batch.
+pub fn solve_batched(
+    device: &Arc<Device>,
+    scene: &Scene,
+    mesh: &Mesh,
+    settings: &SolveSettings,
+    batch: usize,
     mut on_progress: impl FnMut(&Progress) -> bool,
 ) -> Result<Solution> {
+    if batch == 0 || batch > MAX_BATCH || (batch > 1 && default_batch(settings.method) == 1) {
+        return Err(Error::Invalid(format!(
+            "a batch of {batch} shooters: the hemicube takes 1 to {MAX_BATCH}, the CPU methods 1"
+        )));
+    }
     let start = Instant::now();
     let gpu_mesh = GpuMesh::new(scene, mesh);
     let mut unshot = gpu_mesh.emission.clone();
@@ -159,38 +233,57 @@ pub fn solve(
     let mut converged = false;
     let mut interrupted = false;
 
+    // Elements whose heap keys are parked at zero while their batch is
+    // picked (so the next pick is another shooter).
+    let mut parked: Vec<u32> = Vec::new();
+    let mut nodes: Vec<u32> = Vec::with_capacity(batch);
     while shots < settings.max_shots {
         if done(unshot_power, share) {
             converged = true;
             break;
         }
-        let Some((shooter, key)) = heap.peek() else {
-            break;
-        };
-        if key <= 0.0 {
+        nodes.clear();
+        let room = batch.min(settings.max_shots - shots);
+        while nodes.len() < room {
+            let Some((shooter, key)) = heap.peek() else {
+                break;
+            };
+            if key <= 0.0 {
+                break;
+            }
+            let tree = shots_engine.tree();
+            let node = match (settings.shooting, settings.method) {
+                (Shooting::Hierarchical(rule), FormFactorMethod::Hemicube) => {
+                    let emitter = scene
+                        .patch_material(mesh.elements[shooter].patch)
+                        .is_emitter();
+                    let grown = tree.shooter(
+                        shooter as u32,
+                        emitter,
+                        &rule,
+                        |e| power(unshot[e as usize], areas[e as usize]),
+                        |e| areas[e as usize] as f64,
+                        unshot_power,
+                    );
+                    clear_of(tree, shooter, grown, &nodes)
+                }
+                _ => tree.leaf[shooter],
+            };
+            for &e in tree.elements(node) {
+                heap.set_key(e as usize, 0.0);
+                parked.push(e);
+            }
+            nodes.push(node);
+        }
+        if nodes.is_empty() {
             converged = true;
             break;
         }
-        let node = match (settings.shooting, settings.method) {
-            (Shooting::Hierarchical(rule), FormFactorMethod::Hemicube) => {
-                let emitter = scene
-                    .patch_material(mesh.elements[shooter].patch)
-                    .is_emitter();
-                shots_engine.tree().shooter(
-                    shooter as u32,
-                    emitter,
-                    &rule,
-                    |e| power(unshot[e as usize], areas[e as usize]),
-                    |e| areas[e as usize] as f64,
-                    unshot_power,
-                )
-            }
-            _ => shots_engine.tree().leaf[shooter],
-        };
         let before = unshot_power;
-        let (after, shot_power) = shots_engine.shoot(node, &unshot, shots as u64, hierarchical)?;
-        // Re-key only what changed; sum the unshot power afresh so rounding
-        // cannot drift.
+        let (after, shot_power) =
+            shots_engine.shoot(&nodes, &unshot, shots as u64, hierarchical)?;
+        // Re-key only what changed (and what was parked); sum the unshot
+        // power afresh so rounding cannot drift.
         unshot_power = 0.0;
         for (j, (new, old)) in after.iter().zip(unshot.iter_mut()).enumerate() {
             if new != old {
@@ -205,7 +298,13 @@ pub fn solve(
             }
             unshot_power += power(*new, areas[j]);
         }
-        shots += 1;
+        for e in parked.drain(..) {
+            heap.set_key(
+                e as usize,
+                power(unshot[e as usize], areas[e as usize]) as f32,
+            );
+        }
+        shots += nodes.len();
         reflected_power += (unshot_power - before + shot_power).max(0.0);
         shot_total += shot_power;
         let r = reflected_power / shot_total;

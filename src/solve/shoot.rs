@@ -250,86 +250,91 @@ impl<'a> Shots<'a> {
         &self.tree
     }
 
-    /// Shoots node `node` of the shooting hierarchy: the mean unshot
-    /// radiosity of its elements (from `unshot`, every element's current
-    /// value) leaves its whole area. `region`: form factors are exact x
-    /// visibility from the node's outline (hierarchical shooting); else the
-    /// hemicube's own at its centre (element shooting, `node` a leaf).
-    /// `salt` varies the CPU methods' ray pattern per shot; they shoot
-    /// leaves only. Returns every element's unshot radiosity after the shot
-    /// (rgba, a unused) and the power shot (mean channel).
+    /// Shoots nodes `nodes` of the shooting hierarchy, in order and in one
+    /// GPU submission (a batch; see `gpu/shooting/batch.rs`): each node's
+    /// mean unshot radiosity over its elements (from `unshot`, every
+    /// element's value when the batch was picked) leaves its whole area.
+    /// The nodes must be disjoint; the CPU methods take one leaf at a time.
+    /// `region`: form factors are exact x visibility from the node's
+    /// outline (hierarchical shooting); else the hemicube's own at its
+    /// centre (element shooting, nodes are leaves). `salt` varies the CPU
+    /// methods' ray pattern per shot. Returns every element's unshot
+    /// radiosity after the batch (rgba, a unused) and the power shot (mean
+    /// channel).
     pub fn shoot(
         &mut self,
-        node: u32,
+        nodes: &[u32],
         unshot: &[[f32; 4]],
         salt: u64,
         region: bool,
     ) -> Result<(Vec<[f32; 4]>, f64)> {
-        let n = &self.tree.nodes[node as usize];
-        let mut sum = [0.0f64; 3];
-        for &e in self.tree.elements(node) {
-            let a = self.mesh.elements[e as usize].area as f64;
-            for c in 0..3 {
-                sum[c] += unshot[e as usize][c] as f64 * a;
-            }
+        if self.cpu.is_some() {
+            let &[node] = nodes else {
+                return Err(Error::Invalid(
+                    "ray-traced and analytic form factors shoot one element per submission".into(),
+                ));
+            };
+            return self.shoot_cpu(node, unshot, salt);
         }
-        let area = n.area.max(f32::MIN_POSITIVE);
-        let mean = sum.map(|x| (x / area as f64) as f32);
-        let shot_power = (sum[0] + sum[1] + sum[2]) / 3.0;
-        let ranks = (n.range.start, n.range.end);
-        let Some(cpu) = &self.cpu else {
-            let faces = self
-                .hemicube
-                .face_view_proj(n.centre, n.normal, near_plane(area));
-            // How the unshot light spreads over the region's children: each
-            // child's mean unshot radiosity over the region's.
-            let level = |m: u32| -> f64 {
-                let node = &self.tree.nodes[m as usize];
-                let power: f64 = self
-                    .tree
-                    .elements(m)
-                    .iter()
-                    .map(|&e| {
-                        let u = unshot[e as usize];
-                        (u[0] + u[1] + u[2]) as f64 * self.mesh.elements[e as usize].area as f64
-                    })
-                    .sum();
-                power / (node.area as f64).max(f64::MIN_POSITIVE)
-            };
-            let region_level = ((sum[0] + sum[1] + sum[2]) / area as f64).max(f64::MIN_POSITIVE);
-            let parts: Vec<(&[glam::Vec3], f32)> = if region && n.children.len() > 1 {
-                n.children
-                    .iter()
-                    .map(|&c| {
-                        let child = &self.tree.nodes[c as usize];
-                        (child.polygon.as_slice(), (level(c) / region_level) as f32)
-                    })
-                    .collect()
-            } else {
-                Vec::new()
-            };
-            let region = region.then_some(Region {
-                outline: &n.polygon,
-                centre: n.centre,
-                radius: n.radius,
-                normal: n.normal,
-                outline_area: n.polygon_area,
-                parts: &parts,
-            });
-            let after = self.engine.shoot(&Shooter {
-                faces,
+        let (tree, mesh) = (&self.tree, self.mesh);
+        // Per node: the parts' outlines and weights, which its Region borrows.
+        let parts: Vec<Vec<(&[glam::Vec3], f32)>> = nodes
+            .iter()
+            .map(|&node| {
+                if region && tree.nodes[node as usize].children.len() > 1 {
+                    parts(tree, mesh, node, unshot)
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect();
+        let mut shot_power = 0.0;
+        let mut shooters = Vec::with_capacity(nodes.len());
+        for (&node, parts) in nodes.iter().zip(&parts) {
+            let n = &tree.nodes[node as usize];
+            let (mean, power) = mean_unshot(tree, mesh, node, unshot);
+            shot_power += power;
+            let area = n.area.max(f32::MIN_POSITIVE);
+            shooters.push(Shooter {
+                faces: self
+                    .hemicube
+                    .face_view_proj(n.centre, n.normal, near_plane(area)),
                 unshot: mean,
                 area: n.area,
-                ranks,
-                region,
-            })?;
-            return Ok((after, shot_power));
-        };
+                ranks: (n.range.start, n.range.end),
+                region: region.then_some(Region {
+                    outline: &n.polygon,
+                    centre: n.centre,
+                    radius: n.radius,
+                    normal: n.normal,
+                    outline_area: n.polygon_area,
+                    parts,
+                }),
+            });
+        }
+        let after = self.engine.shoot(&shooters)?;
+        Ok((after, shot_power))
+    }
+
+    /// One shot of a leaf with form factors from the CPU method.
+    fn shoot_cpu(
+        &mut self,
+        node: u32,
+        unshot: &[[f32; 4]],
+        salt: u64,
+    ) -> Result<(Vec<[f32; 4]>, f64)> {
+        let (mean, shot_power) = mean_unshot(&self.tree, self.mesh, node, unshot);
+        let n = &self.tree.nodes[node as usize];
+        let ranks = (n.range.start, n.range.end);
+        let area = n.area;
         let Some(shooter) = n.element else {
             return Err(Error::Invalid(
                 "ray-traced and analytic form factors shoot element by element (--shooting element)"
                     .into(),
             ));
+        };
+        let Some(cpu) = &self.cpu else {
+            return Err(Error::Invalid("no CPU form-factor method".into()));
         };
         let t = Instant::now();
         let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter as usize, salt);
@@ -350,7 +355,7 @@ impl<'a> Shots<'a> {
             &Shooter {
                 faces: [glam::Mat4::IDENTITY; 5],
                 unshot: mean,
-                area: n.area,
+                area,
                 ranks,
                 region: None,
             },
@@ -375,4 +380,53 @@ impl<'a> Shots<'a> {
             times,
         })
     }
+}
+
+/// A node's mean unshot radiosity over its elements (rgb) and the power
+/// that leaves it (mean channel).
+fn mean_unshot(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]]) -> ([f32; 3], f64) {
+    let n = &tree.nodes[node as usize];
+    let mut sum = [0.0f64; 3];
+    for &e in tree.elements(node) {
+        let a = mesh.elements[e as usize].area as f64;
+        for c in 0..3 {
+            sum[c] += unshot[e as usize][c] as f64 * a;
+        }
+    }
+    let area = n.area.max(f32::MIN_POSITIVE);
+    (
+        sum.map(|x| (x / area as f64) as f32),
+        (sum[0] + sum[1] + sum[2]) / 3.0,
+    )
+}
+
+/// How a region's unshot light spreads over its children: each child's
+/// outline and mean unshot radiosity over the region's.
+fn parts<'t>(
+    tree: &'t ShooterTree,
+    mesh: &Mesh,
+    node: u32,
+    unshot: &[[f32; 4]],
+) -> Vec<(&'t [glam::Vec3], f32)> {
+    let level = |m: u32| -> f64 {
+        let node = &tree.nodes[m as usize];
+        let power: f64 = tree
+            .elements(m)
+            .iter()
+            .map(|&e| {
+                let u = unshot[e as usize];
+                (u[0] + u[1] + u[2]) as f64 * mesh.elements[e as usize].area as f64
+            })
+            .sum();
+        power / (node.area as f64).max(f64::MIN_POSITIVE)
+    };
+    let n = &tree.nodes[node as usize];
+    let region_level = level(node).max(f64::MIN_POSITIVE);
+    n.children
+        .iter()
+        .map(|&c| {
+            let child = &tree.nodes[c as usize];
+            (child.polygon.as_slice(), (level(c) / region_level) as f32)
+        })
+        .collect()
 }

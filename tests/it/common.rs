@@ -13,6 +13,7 @@ pub fn device() -> Arc<Device> {
     let device = Device::new(&DeviceOptions {
         selector: std::env::var("VKRAD_TEST_DEVICE").ok(),
         validate: true,
+        ..Default::default()
     })
     .expect("a Vulkan device (install mesa-vulkan-drivers for lavapipe)");
     if std::env::var_os("VKRAD_REQUIRE_VALIDATION").is_some() {

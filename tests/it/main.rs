@@ -6,6 +6,7 @@ mod common;
 
 mod adaptive;
 mod bad_scenes;
+mod batching;
 mod bench;
 mod cli;
 mod device_faults;

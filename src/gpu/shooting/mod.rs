@@ -1,11 +1,16 @@
 //! The shooting passes: hemicube item buffer (5 faces into one atlas),
 //! form-factor reduction (compute, integer atomics), the exact-times-
 //! visibility correction of a region shot (compute, `ff_node.comp`) and
-//! shooting (compute), all on the GPU; the CPU only picks the shooter and
-//! reads unshot radiosity back.
+//! shooting (compute), all on the GPU; the CPU picks the shooters, lists
+//! the triangles each face may show and reads unshot radiosity back.
 //!
-//! The command buffers are recorded once; a shot only rewrites the small
-//! parameter block and resubmits.
+//! Shots go in batches ([`ShootingEngine::shoot`], `batch.rs`): up to
+//! [`MAX_BATCH`] shooters recorded one after the other into one command
+//! buffer, each with its own slot of the parameter buffer, and one unshot
+//! readback at the end. Each face draws only the triangles it may show
+//! (`cull.rs`, index lists written by the CPU per shot). The uploaded-shot
+//! command buffer is recorded once; the batch and form-factor ones are
+//! recorded per submission (tens of commands).
 
 use std::sync::Arc;
 
@@ -23,9 +28,13 @@ use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::{Error, Result};
 
+mod batch;
+mod cull;
 mod params;
 mod setup;
 mod upload_shot;
+pub use batch::MAX_BATCH;
+use cull::FaceCull;
 pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
@@ -77,11 +86,11 @@ const B_RADIOSITY: u32 = 5;
 const B_UNSHOT: u32 = 6;
 const B_GEOMETRY: u32 = 7;
 const B_RANKS: u32 = 8;
+const B_SNAPSHOT: u32 = 9;
 
 #[derive(Clone, Copy)]
 enum Submission {
-    Shoot,
-    RegionShoot,
+    Batch,
     FormFactors,
     UploadShoot,
 }
@@ -89,8 +98,7 @@ enum Submission {
 impl Submission {
     fn cpu_label(self) -> &'static str {
         match self {
-            Submission::Shoot => "hemicube shot (CPU timer)",
-            Submission::RegionShoot => "region shot (CPU timer)",
+            Submission::Batch => "shot batch (CPU timer)",
             Submission::FormFactors => "hemicube (CPU timer)",
             Submission::UploadShoot => "uploaded shot (CPU timer)",
         }
@@ -103,10 +111,15 @@ pub struct ShootingEngine {
     triangle_vertices: u32,
     atlas: (u32, u32),
     face_viewports: [(u32, u32, u32, u32); 5],
+    /// [`MAX_BATCH`] slots of `params_stride` bytes (one `ShotParams` each,
+    /// aligned for dynamic uniform offsets).
     params: Buffer,
+    params_stride: u64,
     readback: Buffer,
     radiosity: Buffer,
     unshot: Buffer,
+    /// The unshot radiosity when a batch of several shooters was picked.
+    snapshot: Buffer,
     ff: Buffer,
     /// Host-visible form factors for shots computed on the CPU.
     ff_upload: Buffer,
@@ -123,18 +136,28 @@ pub struct ShootingEngine {
     reduce_pipeline: Pipeline,
     region_pipeline: Pipeline,
     shoot_pipeline: Pipeline,
-    shoot_cmds: Commands,
-    region_shoot_cmds: Commands,
+    /// Re-recorded for every batch.
+    batch_cmds: Commands,
     ff_cmds: Commands,
     readback_cmds: Commands,
     upload_shoot_cmds: Commands,
-    shoot_profiler: Option<GpuProfiler>,
-    region_shoot_profiler: Option<GpuProfiler>,
+    batch_profiler: Option<GpuProfiler>,
     ff_profiler: Option<GpuProfiler>,
     upload_profiler: Option<GpuProfiler>,
+    /// Per face, the triangles it may show (`cull.rs`).
+    cull: FaceCull,
+    /// Host-visible index lists of the culled faces (grown as needed).
+    indices: Option<Buffer>,
+    /// Draw only the triangles each face may show (default). Off: every
+    /// triangle into every face, as before; the item buffer is the same.
+    pub face_culling: bool,
     /// Time per stage, accumulated over all submissions.
     pub times: StageTimes,
 }
+
+/// Per face: (first index, index count) in the engine's index buffer;
+/// `None`: draw every triangle, unindexed.
+pub(super) type FaceDraws = Option<[(u32, u32); 5]>;
 
 impl ShootingEngine {
     pub fn new(device: &Arc<Device>, inputs: &ShootingInputs) -> Result<Self> {
@@ -177,6 +200,13 @@ impl ShootingEngine {
             inputs.initial_radiosity,
             storage | src,
         )?;
+        let snapshot = Buffer::new(
+            device,
+            "element unshot radiosity at the batch's pick",
+            16 * n as u64,
+            storage | dst,
+            MemoryLocation::GpuOnly,
+        )?;
         // One u32 per element, then the region shot's two row sums
         // (glsl/ff_node.comp); all cleared with the item buffer.
         let ff = Buffer::new(
@@ -200,10 +230,13 @@ impl ShootingEngine {
             dst,
             MemoryLocation::GpuToCpu,
         )?;
+        let params_size = std::mem::size_of::<ShotParams>() as u64;
+        let align = device.limits.min_uniform_buffer_offset_alignment.max(1);
+        let params_stride = params_size.div_ceil(align) * align;
         let params = Buffer::new(
             device,
             "shot parameters",
-            std::mem::size_of::<ShotParams>() as u64,
+            params_stride * MAX_BATCH as u64,
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             MemoryLocation::CpuToGpu,
         )?;
@@ -231,8 +264,9 @@ impl ShootingEngine {
         let bindings = bind_all(
             device,
             &item,
+            (&params, params_size),
             &[
-                (B_PARAMS, &params),
+                (B_SNAPSHOT, &snapshot),
                 (B_WEIGHTS, &weights),
                 (B_FF, &ff),
                 (B_ELEMENTS, &elements),
@@ -252,9 +286,11 @@ impl ShootingEngine {
             atlas: inputs.atlas,
             face_viewports: inputs.face_viewports,
             params,
+            params_stride,
             readback,
             radiosity,
             unshot,
+            snapshot,
             ff,
             ff_upload,
             _vertices: vertices,
@@ -269,20 +305,18 @@ impl ShootingEngine {
             reduce_pipeline,
             region_pipeline,
             shoot_pipeline,
-            shoot_cmds: Commands::new(device, "shoot commands")?,
-            region_shoot_cmds: Commands::new(device, "region-shoot commands")?,
+            batch_cmds: Commands::new(device, "shot-batch commands")?,
             ff_cmds: Commands::new(device, "form-factor commands")?,
             readback_cmds: Commands::new(device, "readback commands")?,
             upload_shoot_cmds: Commands::new(device, "upload-shoot commands")?,
-            shoot_profiler: GpuProfiler::new(device, "shoot timestamps", 8)?,
-            region_shoot_profiler: GpuProfiler::new(device, "region-shoot timestamps", 8)?,
+            batch_profiler: GpuProfiler::new(device, "shot-batch timestamps", batch::TIMESTAMPS)?,
             ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
             upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
+            cull: FaceCull::new(inputs.triangles),
+            indices: None,
+            face_culling: true,
             times: StageTimes::default(),
         };
-        engine.record_shoot(false)?;
-        engine.record_shoot(true)?;
-        engine.record_form_factors()?;
         engine.record_upload_shoot()?;
         Ok(engine)
     }
@@ -291,13 +325,36 @@ impl ShootingEngine {
         self.element_count as usize
     }
 
-    /// Item buffer and reduction: leaves F(shooter -> every element) in `ff`.
-    fn record_hemicube(&self, cmd: vk::CommandBuffer, profiler: &mut Option<GpuProfiler>) {
+    /// Binds the shared descriptor set at `point` with the parameters of
+    /// batch slot `slot`.
+    fn bind_set(&self, cmd: vk::CommandBuffer, point: vk::PipelineBindPoint, slot: usize) {
+        // SAFETY: cmd is recording; the set and layout are owned by self, and
+        // slot * params_stride + size_of::<ShotParams>() fits `params`.
+        unsafe {
+            self.device.raw.cmd_bind_descriptor_sets(
+                cmd,
+                point,
+                self.bindings.layout,
+                0,
+                &[self.bindings.set],
+                &[(slot as u64 * self.params_stride) as u32],
+            )
+        };
+    }
+
+    /// Item buffer and reduction for the shooter in parameter slot `slot`:
+    /// leaves F(shooter -> every element) in `ff`. Waits for the earlier
+    /// frame's scan and for every earlier reader of `ff` (an earlier
+    /// shooter of the batch).
+    fn record_hemicube(
+        &self,
+        cmd: vk::CommandBuffer,
+        profiler: &mut Option<GpuProfiler>,
+        slot: usize,
+        draws: FaceDraws,
+    ) {
         let d = &self.device;
         let raw = &d.raw;
-        if let Some(p) = profiler.as_mut() {
-            p.begin(cmd);
-        }
         reset_item_frame(
             d,
             cmd,
@@ -326,15 +383,11 @@ impl ShootingEngine {
                 false,
             );
             raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
-            raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.bindings.layout,
-                0,
-                &[self.bindings.set],
-                &[],
-            );
+            self.bind_set(cmd, vk::PipelineBindPoint::GRAPHICS, slot);
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self._vertices.raw()], &[0]);
+            if let (Some(_), Some(indices)) = (draws, &self.indices) {
+                raw.cmd_bind_index_buffer(cmd, indices.raw(), 0, vk::IndexType::UINT32);
+            }
             for (face, &(x, y, fw, fh)) in self.face_viewports.iter().enumerate() {
                 set_viewport(d, cmd, (x, y, fw, fh));
                 raw.cmd_push_constants(
@@ -344,7 +397,17 @@ impl ShootingEngine {
                     0,
                     &(face as u32).to_ne_bytes(),
                 );
-                raw.cmd_draw(cmd, self.triangle_vertices, 1, 0, 0);
+                match draws {
+                    // Indices < triangle_vertices (cull.rs), written by the
+                    // host before the submission.
+                    Some(draws) if self.indices.is_some() => {
+                        let (first, count) = draws[face];
+                        if count > 0 {
+                            raw.cmd_draw_indexed(cmd, count, 1, first, 0, 0);
+                        }
+                    }
+                    _ => raw.cmd_draw(cmd, self.triangle_vertices, 1, 0, 0),
+                }
             }
             raw.cmd_end_rendering(cmd);
         }
@@ -359,14 +422,7 @@ impl ShootingEngine {
                 vk::PipelineBindPoint::COMPUTE,
                 self.reduce_pipeline.raw,
             );
-            raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.bindings.layout,
-                0,
-                &[self.bindings.set],
-                &[],
-            );
+            self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
             // One invocation per run of REDUCE_RUN pixels (glsl/ff_reduce.comp).
             let runs = w.div_ceil(REDUCE_RUN) * h;
             raw.cmd_dispatch(cmd, runs.div_ceil(64), 1, 1);
@@ -376,63 +432,14 @@ impl ShootingEngine {
         }
     }
 
-    /// The hemicube shot, with the region correction between reduction and
-    /// shooting when `region` (an element shot skips it: even a dispatch
-    /// that returns at once costs milliseconds on lavapipe).
-    fn record_shoot(&mut self, region: bool) -> Result<()> {
-        let (cmds, mut profiler) = if region {
-            (&self.region_shoot_cmds, self.region_shoot_profiler.take())
-        } else {
-            (&self.shoot_cmds, self.shoot_profiler.take())
-        };
-        let cmd = cmds.begin()?;
-        self.record_hemicube(cmd, &mut profiler);
-        let compute_rw =
-            vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
-        let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
-        if !region {
-            // Reduction atomics -> shooting read of ff.
-            self.record_shooting(cmd, &mut profiler, compute);
-            self.shoot_profiler = profiler;
-            return self.shoot_cmds.end();
-        }
-        barriers(
-            &self.device,
-            cmd,
-            // Reduction atomics -> region correction read/write of ff.
-            &[buffer_barrier(self.ff.raw(), compute, compute)],
-            &[],
-        );
-        // SAFETY: cmd is recording; handles owned by self.
-        unsafe {
-            let raw = &self.device.raw;
-            raw.cmd_bind_pipeline(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.region_pipeline.raw,
-            );
-            raw.cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
-        }
-        if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "region form factors");
-        }
-        // Region correction writes -> shooting read of ff.
-        self.record_shooting(
-            cmd,
-            &mut profiler,
-            (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
-        );
-        self.region_shoot_profiler = profiler;
-        self.region_shoot_cmds.end()
-    }
-
-    /// The shooting dispatch and the unshot readback, after `ff` was written
-    /// by `ff_producer` (stage, access).
+    /// The shooting dispatch of the shooter in parameter slot `slot`, after
+    /// `ff` was written by `ff_producer` (stage, access).
     pub(super) fn record_shooting(
         &self,
         cmd: vk::CommandBuffer,
         profiler: &mut Option<GpuProfiler>,
         ff_producer: (vk::PipelineStageFlags2, vk::AccessFlags2),
+        slot: usize,
     ) {
         let d = &self.device;
         let compute_rw =
@@ -450,16 +457,25 @@ impl ShootingEngine {
                         vk::AccessFlags2::SHADER_STORAGE_READ,
                     ),
                 ),
-                // Previous readback copy of unshot -> this shot's update (WAR).
+                // The previous shot's update of unshot (an earlier shooter of
+                // the batch: RAW/WAW), and the previous readback or snapshot
+                // copy of it (WAR) -> this shot's update.
                 buffer_barrier(
                     self.unshot.raw(),
-                    (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
                     (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
                 ),
-                // Previous final-radiosity copy -> this shot's update (WAR).
+                // The previous shot's update of radiosity (RAW/WAW), and the
+                // previous final-radiosity copy (WAR) -> this shot's update.
                 buffer_barrier(
                     self.radiosity.raw(),
-                    (vk::PipelineStageFlags2::COPY, vk::AccessFlags2::empty()),
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
+                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
                     (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
                 ),
             ],
@@ -469,30 +485,34 @@ impl ShootingEngine {
         unsafe {
             d.raw
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.shoot_pipeline.raw);
-            d.raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.bindings.layout,
-                0,
-                &[self.bindings.set],
-                &[],
-            );
+            self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
             d.raw
                 .cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "shooting");
         }
+    }
+
+    /// Copies every element's unshot radiosity into the readback buffer.
+    pub(super) fn record_unshot_readback(
+        &self,
+        cmd: vk::CommandBuffer,
+        profiler: &mut Option<GpuProfiler>,
+    ) {
         self.record_copy_to_host(cmd, self.unshot.raw(), 16);
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
         }
     }
 
-    fn record_form_factors(&mut self) -> Result<()> {
+    fn record_form_factors(&mut self, draws: FaceDraws) -> Result<()> {
         let cmd = self.ff_cmds.begin()?;
         let mut profiler = self.ff_profiler.take();
-        self.record_hemicube(cmd, &mut profiler);
+        if let Some(p) = profiler.as_mut() {
+            p.begin(cmd);
+        }
+        self.record_hemicube(cmd, &mut profiler, 0, draws);
         self.record_copy_to_host(cmd, self.ff.raw(), 4);
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
@@ -547,20 +567,6 @@ impl ShootingEngine {
         );
     }
 
-    /// One progressive-refinement shot with form factors from the GPU
-    /// hemicube at the shooter's centre (corrected near a region shooter).
-    /// Returns every element's unshot radiosity after the shot (rgba, a
-    /// unused).
-    pub fn shoot(&mut self, shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
-        self.write_params(shooter)?;
-        self.submit(if shooter.region.is_some() {
-            Submission::RegionShoot
-        } else {
-            Submission::Shoot
-        })?;
-        self.readback.read(self.element_count as usize)
-    }
-
     /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
     /// were computed on the CPU (`form_factors`, one per element).
     pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
@@ -581,10 +587,14 @@ impl ShootingEngine {
             })
             .collect();
         self.ff_upload.write(0, &fixed)?;
-        self.write_params(&Shooter {
-            region: None,
-            ..*shooter
-        })?;
+        self.write_params(
+            0,
+            &Shooter {
+                region: None,
+                ..*shooter
+            },
+            false,
+        )?;
         self.submit(Submission::UploadShoot)?;
         self.readback.read(self.element_count as usize)
     }
@@ -592,13 +602,19 @@ impl ShootingEngine {
     /// Form factors F(point -> element) from a hemicube at the given frame,
     /// for every element (no shooting).
     pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
-        self.write_params(&Shooter {
-            faces: *face_view_proj,
-            unshot: [0.0; 3],
-            area: 0.0,
-            ranks: (u32::MAX, u32::MAX),
-            region: None,
-        })?;
+        self.write_params(
+            0,
+            &Shooter {
+                faces: *face_view_proj,
+                unshot: [0.0; 3],
+                area: 0.0,
+                ranks: (u32::MAX, u32::MAX),
+                region: None,
+            },
+            false,
+        )?;
+        let draws = self.cull_faces(&[*face_view_proj])?;
+        self.record_form_factors(draws[0])?;
         self.submit(Submission::FormFactors)?;
         let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
         Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
@@ -608,8 +624,7 @@ impl ShootingEngine {
     /// time per pass (GPU timestamps, or one CPU-timed entry without them).
     fn submit(&mut self, which: Submission) -> Result<()> {
         let (cmds, profiler) = match which {
-            Submission::Shoot => (&self.shoot_cmds, &self.shoot_profiler),
-            Submission::RegionShoot => (&self.region_shoot_cmds, &self.region_shoot_profiler),
+            Submission::Batch => (&self.batch_cmds, &self.batch_profiler),
             Submission::FormFactors => (&self.ff_cmds, &self.ff_profiler),
             Submission::UploadShoot => (&self.upload_shoot_cmds, &self.upload_profiler),
         };

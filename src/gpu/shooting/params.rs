@@ -16,7 +16,10 @@ pub struct ShotParams {
     /// 0: the hemicube's form factors; 1: exact x visibility from `outline`.
     pub mode: u32,
     pub hemicube_pixels: u32,
-    pub _pad0: u32,
+    /// 1: the shooter gives away its unshot radiosity of the batch's
+    /// snapshot (it is one of several shooters in one submission); 0: all
+    /// of it (it shoots alone). See glsl/shoot.comp.
+    pub subtract_snapshot: u32,
     /// The shooter's elements: ranks [x, y).
     pub shooter_ranks: [u32; 4],
     pub outline: [[f32; 4]; MAX_OUTLINE],
@@ -80,7 +83,15 @@ pub struct Region<'a> {
 }
 
 impl ShootingEngine {
-    pub(super) fn write_params(&mut self, shooter: &Shooter) -> Result<()> {
+    /// Writes `shooter`'s parameters into slot `slot` of the parameter
+    /// buffer (the dynamic offset `slot * params_stride` selects it).
+    /// `batched`: it shares its submission with other shooters.
+    pub(super) fn write_params(
+        &mut self,
+        slot: usize,
+        shooter: &Shooter,
+        batched: bool,
+    ) -> Result<()> {
         let [r, g, b] = shooter.unshot;
         let mut params = ShotParams {
             face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
@@ -88,7 +99,7 @@ impl ShootingEngine {
             element_count: self.element_count,
             mode: 0,
             hemicube_pixels: self.atlas.0 * self.atlas.1,
-            _pad0: 0,
+            subtract_snapshot: batched as u32,
             shooter_ranks: [shooter.ranks.0, shooter.ranks.1, 0, 0],
             outline: [[0.0; 4]; MAX_OUTLINE],
             centre_radius: [0.0; 4],
@@ -127,6 +138,7 @@ impl ShootingEngine {
                 }
             }
         }
-        self.params.write(0, &[params])
+        self.params
+            .write(slot * self.params_stride as usize, &[params])
     }
 }

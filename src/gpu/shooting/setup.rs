@@ -12,28 +12,44 @@ use crate::gpu::memory::{Buffer, Image};
 use crate::gpu::pipeline::{Bindings, GraphicsDesc, Pipeline};
 use crate::gpu::shaders;
 
-/// The descriptor set every pass of the engine shares: the item buffer and
-/// `(binding, buffer)` for the rest (binding 0 is the uniform parameters).
+/// The descriptor set every pass of the engine shares: the item buffer,
+/// the parameters (binding 0, a dynamic uniform buffer: one slot of
+/// `params_range` bytes per shooter of a batch, chosen by the dynamic
+/// offset at bind time) and `(binding, buffer)` for the rest.
 pub(super) fn bind_all(
     device: &Arc<Device>,
     item: &Image,
+    params: (&Buffer, u64),
     buffers: &[(u32, &Buffer)],
 ) -> Result<Bindings> {
-    let kind = |binding: u32| {
-        if binding == B_PARAMS {
-            vk::DescriptorType::UNIFORM_BUFFER
-        } else {
-            vk::DescriptorType::STORAGE_BUFFER
-        }
-    };
-    let mut layout: Vec<(u32, vk::DescriptorType)> =
-        vec![(B_ITEM, vk::DescriptorType::STORAGE_IMAGE)];
-    layout.extend(buffers.iter().map(|&(b, _)| (b, kind(b))));
+    let mut layout: Vec<(u32, vk::DescriptorType)> = vec![
+        (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
+        (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC),
+    ];
+    layout.extend(
+        buffers
+            .iter()
+            .map(|&(b, _)| (b, vk::DescriptorType::STORAGE_BUFFER)),
+    );
     let bindings = Bindings::new(device, "shooting bindings", &layout, 4)?;
     bindings.bind_storage_image(B_ITEM, item.view());
     for &(b, buffer) in buffers {
-        bindings.bind_buffer(b, kind(b), buffer.raw());
+        bindings.bind_buffer(b, vk::DescriptorType::STORAGE_BUFFER, buffer.raw());
     }
+    // A dynamic uniform buffer's range is one slot (offset + range must fit
+    // the buffer for every dynamic offset), not the whole buffer.
+    let info = [vk::DescriptorBufferInfo {
+        buffer: params.0.raw(),
+        offset: 0,
+        range: params.1,
+    }];
+    let write = vk::WriteDescriptorSet::default()
+        .dst_set(bindings.set)
+        .dst_binding(B_PARAMS)
+        .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC)
+        .buffer_info(&info);
+    // SAFETY: the set was just allocated and no command buffer uses it yet.
+    unsafe { device.raw.update_descriptor_sets(&[write], &[]) };
     Ok(bindings)
 }
 

@@ -55,7 +55,9 @@ impl ShootingEngine {
                 vk::PipelineStageFlags2::COPY,
                 vk::AccessFlags2::TRANSFER_WRITE,
             ),
+            0,
         );
+        self.record_unshot_readback(cmd, &mut profiler);
         self.upload_profiler = profiler;
         self.upload_shoot_cmds.end()
     }
