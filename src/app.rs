@@ -339,7 +339,7 @@ fn display_mesh<'a>(
         own,
         check: job.check_mesh,
     };
-    match display.build(scene, builder, &[]) {
+    match display.build(scene, builder) {
         Ok(mesh) => display.mesh = mesh,
         Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
             warnings.push(format!(
@@ -355,14 +355,14 @@ fn display_mesh<'a>(
                     ..solved
                 },
             )?);
-            display.mesh = display.build(scene, builder, &[])?;
+            display.mesh = display.build(scene, builder)?;
         }
         Err(e) => return Err(e),
     }
     Ok(Some(display))
 }
 
-/// The display mesh and how to build it again with points inserted.
+/// The display mesh and how it is built.
 struct DisplayMesh<'a> {
     mesh: Mesh,
     mesher: Mesher,
@@ -373,15 +373,10 @@ struct DisplayMesh<'a> {
 }
 
 impl DisplayMesh<'_> {
-    fn build(
-        &mut self,
-        scene: &Scene,
-        solve_builder: &mut MeshBuilder,
-        extra_points: &[(u32, Vec3)],
-    ) -> Result<Mesh> {
+    fn build(&mut self, scene: &Scene, solve_builder: &mut MeshBuilder) -> Result<Mesh> {
         let mesh = match &mut self.own {
-            Some(own) => own.build(extra_points)?.0,
-            None => solve_builder.build_finer(self.edge, extra_points)?.0,
+            Some(own) => own.build(&[])?.0,
+            None => solve_builder.build_finer(self.edge)?.0,
         };
         if self.check {
             check_mesh(&mesh, scene, self.mesher)?;
@@ -390,17 +385,14 @@ impl DisplayMesh<'_> {
     }
 }
 
-/// Gathers the display mesh's vertices, then refines it where
-/// [`split_points`] finds the Gouraud image wrong (discontinuity display
-/// meshes only: they take inserted points) and gathers the new vertices.
-/// A refined mesh that fails its check is dropped with a warning.
+/// Gathers the display mesh's vertices, then splits its elements where
+/// [`split_points`] finds the Gouraud image wrong and gathers the new
+/// vertices.
 fn gather_display(
     scene: &Scene,
     gather: &FinalGather,
     display: &mut DisplayMesh,
-    solve_builder: &mut MeshBuilder,
     passes: usize,
-    warnings: &mut Vec<String>,
 ) -> Vec<[f32; 3]> {
     let refinement = DisplayRefinement {
         passes,
@@ -412,13 +404,9 @@ fn gather_display(
     };
     let mut cache = VertexCache::default();
     let mut values = gather.at_vertices(&display.mesh, &mut cache);
-    if display.mesher == Mesher::Uniform {
-        return values;
-    }
-    let mut points = Vec::new();
     let mut checked = Checked::default();
     for _ in 0..refinement.passes {
-        let new = split_points(
+        let split = split_points(
             scene,
             &display.mesh,
             &values,
@@ -426,22 +414,15 @@ fn gather_display(
             &refinement,
             &mut checked,
         );
-        if new.is_empty() {
+        if split.is_empty() {
             break;
         }
-        points.extend(new);
-        match display.build(scene, solve_builder, &points) {
-            Ok(mesh) => {
-                display.mesh = mesh;
-                values = gather.at_vertices(&display.mesh, &mut cache);
-            }
-            Err(e) => {
-                warnings.push(format!(
-                    "the refined display mesh could not be built ({e}); the image shows the unrefined one"
-                ));
-                break;
-            }
-        }
+        // Split in place (one triangle into three at its centroid): the
+        // mesh stays conforming, no vertex moves, and only the centroids
+        // are gathered. (Re-meshing with the centroids inserted made the
+        // discontinuity mesher leave regions unsubdivided.)
+        display.mesh = display.mesh.split_at_centroids(&split);
+        values = gather.at_vertices(&display.mesh, &mut cache);
     }
     values
 }
@@ -615,14 +596,7 @@ pub fn run_scene(
             let tree = ShooterTree::new(&scene, &mesh);
             let gather = FinalGather::new(&scene, &mesh, &tree, &sources, settings);
             match display.as_mut() {
-                Some(display) => gather_display(
-                    &scene,
-                    &gather,
-                    display,
-                    &mut builder,
-                    job.display_refinements,
-                    &mut warnings,
-                ),
+                Some(display) => gather_display(&scene, &gather, display, job.display_refinements),
                 None => gather.at_vertices(&mesh, &mut VertexCache::default()),
             }
         }

@@ -197,14 +197,9 @@ impl<'a> MeshBuilder<'a> {
     }
 
     /// The same mesher's mesh at a finer `max_edge` (the display mesh
-    /// the final gather shades) with `extra_points` inserted
-    /// (discontinuity mesher only), its cost checked first; the blocker
-    /// table is reused.
-    pub fn build_finer(
-        &mut self,
-        max_edge: f32,
-        extra_points: &[(u32, Vec3)],
-    ) -> Result<(Mesh, MeshReport)> {
+    /// the final gather shades), its cost checked first; the blocker table
+    /// is reused.
+    pub fn build_finer(&mut self, max_edge: f32) -> Result<(Mesh, MeshReport)> {
         let settings = MeshSettings {
             max_edge,
             ..self.settings
@@ -215,7 +210,7 @@ impl<'a> MeshBuilder<'a> {
             max_edge,
         )?;
         let saved = std::mem::replace(&mut self.settings, settings);
-        let built = self.build(extra_points);
+        let built = self.build(&[]);
         self.settings = saved;
         built
     }

@@ -9,6 +9,7 @@ pub mod discontinuity;
 mod junction;
 mod sanity;
 pub mod smooth;
+mod split;
 pub mod uniform;
 
 pub use junction::remove_t_junctions;

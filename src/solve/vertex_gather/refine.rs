@@ -46,8 +46,8 @@ pub struct Checked {
     centres: HashSet<[i64; 3]>,
 }
 
-/// The centroids of the display elements to split, as `(patch, point)`,
-/// worst first, at most one per four elements.
+/// The display elements to split at their centroids (indices), worst
+/// first, at most one per four elements.
 pub fn split_points(
     scene: &Scene,
     display: &Mesh,
@@ -55,7 +55,7 @@ pub fn split_points(
     gather: &FinalGather,
     settings: &DisplayRefinement,
     checked: &mut Checked,
-) -> Vec<(u32, Vec3)> {
+) -> Vec<usize> {
     let cell = 1e-6 * scene.extent().max(f32::MIN_POSITIVE);
     let place = |p: Vec3| {
         let q = p / cell;
@@ -114,10 +114,7 @@ pub fn split_points(
         .collect();
     split.sort_by(|a, b| b.0.total_cmp(&a.0));
     split.truncate(display.elements.len() / 4);
-    split
-        .into_iter()
-        .map(|(_, k)| (display.elements[k].patch, display.elements[k].centre))
-        .collect()
+    split.into_iter().map(|(_, k)| k).collect()
 }
 
 fn longest_edge(mesh: &Mesh, k: usize) -> f32 {

@@ -240,7 +240,8 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     let points = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
     assert!(!points.is_empty(), "the shadow's elements are split");
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
-    for &(patch, p) in &points {
+    for &k in &points {
+        let (patch, p) = (display.elements[k].patch, display.elements[k].centre);
         // Every split is on the floor where the box hides part of the
         // light, or right beside the box; none where the floor sees all.
         assert_eq!(patch, 0, "split at {p} off the floor");
