@@ -385,9 +385,9 @@ impl DisplayMesh<'_> {
     }
 }
 
-/// Gathers the display mesh's vertices, then splits its elements where
-/// [`split_points`] finds the Gouraud image wrong and gathers the new
-/// vertices.
+/// Gathers the display mesh's vertices, then (discontinuity display
+/// meshes only) splits its elements where [`split_points`] finds the
+/// Gouraud image wrong and gathers the new vertices.
 fn gather_display(
     scene: &Scene,
     gather: &FinalGather,
@@ -404,6 +404,12 @@ fn gather_display(
     };
     let mut cache = VertexCache::default();
     let mut values = gather.at_vertices(&display.mesh, &mut cache);
+    // A uniform display mesh has shadow and contact lines inside its
+    // elements: split at centroids, they show as stars (seen around the
+    // light of `curved.obj`).
+    if display.mesher == Mesher::Uniform {
+        return values;
+    }
     let mut checked = Checked::default();
     for _ in 0..refinement.passes {
         let split = split_points(

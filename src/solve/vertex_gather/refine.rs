@@ -16,9 +16,14 @@ use std::collections::HashSet;
 use glam::Vec3;
 
 use super::FinalGather;
+use crate::mesh::smooth::{smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
+
+/// Corners whose shared normal is within about 0.25 degrees of their
+/// element's count as flat.
+const FLAT_COSINE: f32 = 0.99999;
 
 /// When a display element is split.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,9 +77,22 @@ pub fn split_points(
         }
         (lo, hi, sum / corners.len().max(1) as f32)
     };
+    // Elements of a smooth surface split into facets are left alone: a
+    // centroid would be shaded with its facet's normal, not the smooth
+    // one its corners share, and show the facet.
+    let groups = smooth_groups(scene, display, CREASE_DEGREES);
+    let flat = |k: usize| {
+        let e = &display.elements[k];
+        e.corners().iter().all(|&v| {
+            groups
+                .members
+                .get(groups.group[v as usize] as usize)
+                .is_some_and(|&(_, n)| n.dot(e.normal) > FLAT_COSINE)
+        })
+    };
     let receiving = |k: usize| {
         let e = &display.elements[k];
-        e.area > 0.0 && !scene.patch_material(e.patch).is_emitter()
+        e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
     };
     let (mut sum, mut area) = (0.0f64, 0.0f64);
     for k in (0..display.elements.len()).filter(|&k| receiving(k)) {
