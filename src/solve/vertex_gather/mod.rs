@@ -72,11 +72,18 @@ impl Default for VertexGather {
     }
 }
 
-/// Fewest rays to a reflecting node. One ray's visible share is 0 or 1,
+/// Fewest rays to a near reflecting node. One ray's visible share is 0 or 1,
 /// and the share it estimates is of the node's area, not of its form
 /// factor (the kernel weights cancel): biased beside blockers. Two cut the
 /// Cornell box's mean bias against a path tracer from -0.44% to -0.30%.
 const MIN_REFLECTOR_RAYS: usize = 2;
+
+/// A reflecting node is near (and gets [`MIN_REFLECTOR_RAYS`]) when its
+/// radius is over this share of its distance. Far ones keep one ray: on
+/// `curved.obj`'s 6,278 patches two everywhere made the gather 1.3x
+/// slower (20.6 s against 15.7 s); on the Cornell box this keeps the
+/// bias (-0.24%) and lets 9 probes instead of 6 pass 10%.
+const NEAR_RADIUS: f64 = 0.1;
 
 /// A node as a light source: its polygon, mean radiosity and evenness.
 struct Source {
@@ -431,7 +438,16 @@ impl Receiver {
             ((settings.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
                 .clamp(16, settings.emitter_rays)
         } else {
-            ((exact * 128.0).ceil() as usize).clamp(MIN_REFLECTOR_RAYS, settings.reflector_rays)
+            // Near, the kernel varies across the node and one ray's share
+            // is biased; far, it is flat and one ray is as good.
+            let centre = polygon.iter().copied().sum::<DVec3>() / polygon.len() as f64;
+            let radius = polygon
+                .iter()
+                .map(|v| v.distance(centre))
+                .fold(0.0, f64::max);
+            let near = radius > NEAR_RADIUS * centre.distance(self.p.as_dvec3());
+            let fewest = if near { MIN_REFLECTOR_RAYS } else { 1 };
+            ((exact * 128.0).ceil() as usize).clamp(fewest, settings.reflector_rays)
         };
         // A light wholly seen or wholly hidden by a first, coarse set of
         // rays is taken as such: only penumbrae pay for the full count.
