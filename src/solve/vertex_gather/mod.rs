@@ -83,7 +83,7 @@ const MIN_REFLECTOR_RAYS: usize = 2;
 /// `curved.obj`'s 6,278 patches two everywhere made the gather 1.3x
 /// slower (20.6 s against 15.7 s); on the Cornell box this keeps the
 /// bias (-0.24%) and lets 9 probes instead of 6 pass 10%.
-const NEAR_RADIUS: f64 = 0.1;
+const NEAR_RADIUS: f32 = 0.1;
 
 /// A node as a light source: its polygon, mean radiosity and evenness.
 struct Source {
@@ -316,15 +316,15 @@ impl Gather<'_> {
             if !at.faces(node.centre, node.normal, &node.polygon) {
                 continue;
             }
-            let far = node.radius <= settings.opening * at.p.distance(node.centre);
+            let distance = at.p.distance(node.centre);
+            let far = node.radius <= settings.opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
             if !take_whole {
                 stack.extend_from_slice(&node.children);
                 continue;
             }
-            let sample = |u, w| src.point(u, w);
-            gathered += src.radiosity
-                * at.form_factor(&src.polygon, src, sample, &self.occluders, settings, rng);
+            let near = node.radius > NEAR_RADIUS * distance;
+            gathered += src.radiosity * at.form_factor(src, near, &self.occluders, settings, rng);
         }
         gathered
     }
@@ -416,19 +416,19 @@ impl Receiver {
             && polygon.iter().any(|&c| (c - self.p).dot(self.n) > 0.0)
     }
 
-    /// The exact unoccluded form factor to `polygon` (a part of `src`,
-    /// sampled uniformly in area by `sample` from the unit square) times
-    /// the visible share of it, estimated by stratified rays.
+    /// The exact unoccluded form factor to `src` times the visible share
+    /// of it, estimated by stratified rays to points sampled uniformly in
+    /// its area. `near`: its radius is over [`NEAR_RADIUS`] times its
+    /// distance.
     fn form_factor(
         &self,
-        polygon: &[DVec3],
         src: &Source,
-        sample: impl Fn(f32, f32) -> Vec3,
+        near: bool,
         occluders: &Occluders,
         settings: &VertexGather,
         rng: &mut Pcg32,
     ) -> f32 {
-        let exact = point_to_polygon(self.p.as_dvec3(), self.n.as_dvec3(), polygon) as f32;
+        let exact = point_to_polygon(self.p.as_dvec3(), self.n.as_dvec3(), &src.polygon) as f32;
         if exact.is_nan() || exact <= 0.0 {
             return 0.0;
         }
@@ -440,12 +440,6 @@ impl Receiver {
         } else {
             // Near, the kernel varies across the node and one ray's share
             // is biased; far, it is flat and one ray is as good.
-            let centre = polygon.iter().copied().sum::<DVec3>() / polygon.len() as f64;
-            let radius = polygon
-                .iter()
-                .map(|v| v.distance(centre))
-                .fold(0.0, f64::max);
-            let near = radius > NEAR_RADIUS * centre.distance(self.p.as_dvec3());
             let fewest = if near { MIN_REFLECTOR_RAYS } else { 1 };
             ((exact * 128.0).ceil() as usize).clamp(fewest, settings.reflector_rays)
         };
@@ -453,7 +447,7 @@ impl Receiver {
         // rays is taken as such: only penumbrae pay for the full count.
         const FIRST_RAYS: usize = 16;
         if src.emits && rays > 2 * FIRST_RAYS {
-            let (seen, all) = self.visible_weight(FIRST_RAYS, src, &sample, occluders, rng);
+            let (seen, all) = self.visible_weight(FIRST_RAYS, src, occluders, rng);
             if all <= 0.0 {
                 return 0.0;
             }
@@ -461,7 +455,7 @@ impl Receiver {
                 return exact * (seen / all);
             }
         }
-        let (seen, all) = self.visible_weight(rays, src, &sample, occluders, rng);
+        let (seen, all) = self.visible_weight(rays, src, occluders, rng);
         if all <= 0.0 {
             return 0.0;
         }
@@ -474,7 +468,6 @@ impl Receiver {
         &self,
         rays: usize,
         src: &Source,
-        sample: &impl Fn(f32, f32) -> Vec3,
         occluders: &Occluders,
         rng: &mut Pcg32,
     ) -> (f32, f32) {
@@ -484,7 +477,7 @@ impl Receiver {
             for c in 0..cols {
                 let u = (r as f32 + rng.next_f32()) / rows as f32;
                 let w = (c as f32 + rng.next_f32()) / cols as f32;
-                let x = sample(u, w);
+                let x = src.point(u, w);
                 let d = x - self.p;
                 let r2 = d.length_squared();
                 let (cos_v, cos_s) = (self.n.dot(d), -src.normal.dot(d));
