@@ -225,7 +225,7 @@ pub fn estimated_error(
 
 /// The area-weighted mean luminance of the non-emitting surfaces, from the
 /// corner values; `None` when they receive nothing.
-fn mean_receiver_radiosity(
+pub(crate) fn mean_receiver_radiosity(
     scene: &Scene,
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
@@ -239,7 +239,7 @@ fn mean_receiver_radiosity(
 }
 
 /// The Gouraud value at an element's centroid: the mean of its corners.
-fn corner_mean(e: &Element, vertex_radiosity: &[[f32; 3]]) -> f32 {
+pub(crate) fn corner_mean(e: &Element, vertex_radiosity: &[[f32; 3]]) -> f32 {
     let corners = e.corners();
     corners
         .iter()
@@ -252,7 +252,7 @@ fn is_emitter(scene: &Scene, e: &Element) -> bool {
     scene.patch_material(e.patch).is_emitter()
 }
 
-fn longest_edge(mesh: &Mesh, element: usize) -> f32 {
+pub(crate) fn longest_edge(mesh: &Mesh, element: usize) -> f32 {
     let corners: Vec<Vec3> = mesh.elements[element]
         .corners()
         .iter()

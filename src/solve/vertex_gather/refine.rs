@@ -20,6 +20,7 @@ use crate::mesh::smooth::{smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
+use crate::solve::adaptive::{corner_mean, longest_edge, mean_receiver_radiosity};
 
 /// Corners whose shared normal is within about 0.25 degrees of their
 /// element's count as flat.
@@ -66,16 +67,15 @@ pub fn split_points(
         let q = p / cell;
         [q.x as i64, q.y as i64, q.z as i64]
     };
-    let corner_levels = |k: usize| -> (f32, f32, f32) {
-        let corners = display.elements[k].corners();
-        let levels = corners.iter().map(|&v| luminance(values[v as usize]));
-        let (mut lo, mut hi, mut sum) = (f32::INFINITY, 0.0f32, 0.0f32);
-        for l in levels {
-            lo = lo.min(l);
-            hi = hi.max(l);
-            sum += l;
-        }
-        (lo, hi, sum / corners.len().max(1) as f32)
+    // The lowest and highest corner level.
+    let corner_range = |k: usize| -> (f32, f32) {
+        display.elements[k]
+            .corners()
+            .iter()
+            .map(|&v| luminance(values[v as usize]))
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), l| {
+                (lo.min(l), hi.max(l))
+            })
     };
     // Elements of a smooth surface split into facets are left alone: a
     // centroid would be shaded with its facet's normal, not the smooth
@@ -94,19 +94,15 @@ pub fn split_points(
         let e = &display.elements[k];
         e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
     };
-    let (mut sum, mut area) = (0.0f64, 0.0f64);
-    for k in (0..display.elements.len()).filter(|&k| receiving(k)) {
-        sum += f64::from(corner_levels(k).2) * f64::from(display.elements[k].area);
-        area += f64::from(display.elements[k].area);
-    }
-    if area <= 0.0 || sum <= 0.0 {
+    let Some(mean) = mean_receiver_radiosity(scene, display, values) else {
         return Vec::new();
-    }
-    let floor = settings.floor * (sum / area) as f32;
+    };
+    let floor = settings.floor * mean;
     let suspects: Vec<usize> = (0..display.elements.len())
         .filter(|&k| receiving(k) && longest_edge(display, k) >= settings.min_edge)
         .filter(|&k| {
-            let (lo, hi, mean) = corner_levels(k);
+            let (lo, hi) = corner_range(k);
+            let mean = corner_mean(&display.elements[k], values);
             hi - lo > settings.suspect * mean.max(floor)
         })
         .filter(|&k| checked.centres.insert(place(display.elements[k].centre)))
@@ -124,7 +120,7 @@ pub fn split_points(
         .zip(at_centres)
         .filter_map(|(&k, centre)| {
             let centre = luminance(centre);
-            let mean = corner_levels(k).2;
+            let mean = corner_mean(&display.elements[k], values);
             let gap = (centre - mean).abs();
             (gap > settings.tolerance * centre.max(mean).max(floor))
                 .then(|| (gap * gap * display.elements[k].area, k))
@@ -133,15 +129,4 @@ pub fn split_points(
     split.sort_by(|a, b| b.0.total_cmp(&a.0));
     split.truncate(display.elements.len() / 4);
     split.into_iter().map(|(_, k)| k).collect()
-}
-
-fn longest_edge(mesh: &Mesh, k: usize) -> f32 {
-    let corners = mesh.elements[k].corners();
-    (0..corners.len())
-        .map(|i| {
-            let a = mesh.vertices[corners[i] as usize];
-            let b = mesh.vertices[corners[(i + 1) % corners.len()] as usize];
-            a.distance(b)
-        })
-        .fold(0.0, f32::max)
 }
