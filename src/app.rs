@@ -290,13 +290,13 @@ pub const DISPLAY_REFINEMENTS: usize = 2;
 /// display is never built). A discontinuity display mesh that cannot be
 /// built (too many patches, or a mesh that fails its check) falls back to
 /// a uniform one, with a warning.
-fn display_mesh<'a>(
+fn display_mesh(
     job: &Job,
-    scene: &'a Scene,
-    device: &'a Arc<Device>,
-    builder: &mut MeshBuilder<'a>,
+    scene: &Scene,
+    device: &Arc<Device>,
+    builder: &mut MeshBuilder,
     warnings: &mut Vec<String>,
-) -> Result<Option<DisplayMesh<'a>>> {
+) -> Result<Option<DisplayMesh>> {
     let solved = *builder.settings();
     // Half the scene's default edge: finer than a default solve, and no
     // finer than a solve the user made finer (its cost grows with the
@@ -319,70 +319,38 @@ fn display_mesh<'a>(
     if mesher == solved.mesher && edge >= solved.max_edge {
         return Ok(None);
     }
-    let own = (mesher != solved.mesher)
-        .then(|| {
-            MeshBuilder::new(
-                device,
-                scene,
-                MeshSettings {
-                    mesher,
-                    max_edge: edge,
-                    ..solved
-                },
-            )
-        })
-        .transpose()?;
-    let mut display = DisplayMesh {
-        mesh: Mesh::default(),
-        mesher,
-        edge,
-        own,
-        check: job.check_mesh,
+    let build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
+        let mesh = if mesher == solved.mesher {
+            builder.build_finer(edge)?.0
+        } else {
+            let settings = MeshSettings {
+                mesher,
+                max_edge: edge,
+                ..solved
+            };
+            MeshBuilder::new(device, scene, settings)?.build(&[])?.0
+        };
+        if job.check_mesh {
+            check_mesh(&mesh, scene, mesher)?;
+        }
+        Ok(DisplayMesh { mesh, mesher, edge })
     };
-    match display.build(scene, builder) {
-        Ok(mesh) => display.mesh = mesh,
+    match build(mesher, builder) {
         Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
             warnings.push(format!(
                 "the discontinuity display mesh failed its check ({why}); the image shows a uniform mesh"
             ));
-            display.mesher = Mesher::Uniform;
-            display.own = Some(MeshBuilder::new(
-                device,
-                scene,
-                MeshSettings {
-                    mesher: Mesher::Uniform,
-                    max_edge: edge,
-                    ..solved
-                },
-            )?);
-            display.mesh = display.build(scene, builder)?;
+            build(Mesher::Uniform, builder).map(Some)
         }
-        Err(e) => return Err(e),
+        other => other.map(Some),
     }
-    Ok(Some(display))
 }
 
-/// The display mesh and how it is built.
-struct DisplayMesh<'a> {
+/// The display mesh, its mesher and its maximum edge.
+struct DisplayMesh {
     mesh: Mesh,
     mesher: Mesher,
     edge: f32,
-    /// Its own builder when its mesher is not the solve's.
-    own: Option<MeshBuilder<'a>>,
-    check: bool,
-}
-
-impl DisplayMesh<'_> {
-    fn build(&mut self, scene: &Scene, solve_builder: &mut MeshBuilder) -> Result<Mesh> {
-        let mesh = match &mut self.own {
-            Some(own) => own.build(&[])?.0,
-            None => solve_builder.build_finer(self.edge)?.0,
-        };
-        if self.check {
-            check_mesh(&mesh, scene, self.mesher)?;
-        }
-        Ok(mesh)
-    }
 }
 
 /// Gathers the display mesh's vertices, then (discontinuity display
