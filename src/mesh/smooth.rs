@@ -28,6 +28,16 @@ pub struct SmoothGroups {
     pub members: Vec<(u32, Vec3)>,
 }
 
+/// The cell of `1e-6` of the scene's extent a point rounds to: points in
+/// one cell are one place.
+pub fn place_cells(scene: &Scene) -> impl Fn(Vec3) -> [i64; 3] {
+    let cell = (scene.extent() * 1e-6).max(f32::MIN_POSITIVE);
+    move |p: Vec3| {
+        let q = (p / cell).round();
+        [q.x as i64, q.y as i64, q.z as i64]
+    }
+}
+
 /// Groups the vertices of `mesh` (see the module documentation). Positions
 /// match when they round to the same cell of `1e-6` of the scene's extent.
 pub fn smooth_groups(scene: &Scene, mesh: &Mesh, crease_degrees: f32) -> SmoothGroups {
@@ -46,12 +56,8 @@ pub fn smooth_groups(scene: &Scene, mesh: &Mesh, crease_degrees: f32) -> SmoothG
             None => Vec3::ZERO,
         })
         .collect();
-    let cell = (scene.extent() * 1e-6).max(f32::MIN_POSITIVE);
-    let key = |p: Vec3| {
-        let q = (p / cell).round();
-        (q.x as i64, q.y as i64, q.z as i64)
-    };
-    let mut at: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    let key = place_cells(scene);
+    let mut at: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     for (v, &p) in mesh.vertices.iter().enumerate() {
         if patch[v] != u32::MAX {
             at.entry(key(p)).or_default().push(v as u32);

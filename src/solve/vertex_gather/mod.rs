@@ -37,7 +37,7 @@ use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
 use crate::formfactor::sampling::{grid, Pcg32};
-use crate::mesh::smooth::{smooth_groups, CREASE_DEGREES};
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -207,11 +207,8 @@ impl<'a> FinalGather<'a> {
         let scene = self.gather.scene;
         let (points, _, patches) = vertex_frames(scene, display);
         let groups = smooth_groups(scene, display, CREASE_DEGREES);
-        let cell = 1e-6 * scene.extent().max(f32::MIN_POSITIVE);
-        let key = |v: u32| {
-            let p = display.vertices[v as usize] / cell;
-            (patches[v as usize], [p.x as i64, p.y as i64, p.z as i64])
-        };
+        let place = place_cells(scene);
+        let key = |v: u32| (patches[v as usize], place(display.vertices[v as usize]));
         let todo: Vec<usize> = (0..groups.members.len())
             .filter(|&g| !cache.values.contains_key(&key(groups.members[g].0)))
             .collect();

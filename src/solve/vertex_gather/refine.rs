@@ -16,7 +16,7 @@ use std::collections::HashSet;
 use glam::Vec3;
 
 use super::FinalGather;
-use crate::mesh::smooth::{smooth_groups, CREASE_DEGREES};
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
@@ -62,11 +62,7 @@ pub fn split_points(
     settings: &DisplayRefinement,
     checked: &mut Checked,
 ) -> Vec<usize> {
-    let cell = 1e-6 * scene.extent().max(f32::MIN_POSITIVE);
-    let place = |p: Vec3| {
-        let q = p / cell;
-        [q.x as i64, q.y as i64, q.z as i64]
-    };
+    let place = place_cells(scene);
     // The lowest and highest corner level.
     let corner_range = |k: usize| -> (f32, f32) {
         display.elements[k]
