@@ -68,6 +68,9 @@ pub struct ShooterTree {
     pub rank: Vec<u32>,
     /// The leaf node of every element.
     pub leaf: Vec<u32>,
+    /// Regions of at most this radius shoot whole whatever their
+    /// evenness ([`SMALL_REGION`] of the scene's extent).
+    pub small_radius: f32,
 }
 
 impl ShooterTree {
@@ -77,6 +80,7 @@ impl ShooterTree {
             order: Vec::with_capacity(mesh.elements.len()),
             rank: vec![0; mesh.elements.len()],
             leaf: vec![0; mesh.elements.len()],
+            small_radius: scene.extent() * SMALL_REGION,
         };
         for (p, range) in mesh.patch_elements.iter().enumerate() {
             let elements: Vec<u32> = range.clone().collect();
@@ -216,10 +220,10 @@ impl ShooterTree {
     /// The region that shoots for element `top`, the element with the most
     /// unshot power: the highest ancestor of its leaf (up to its patch)
     /// whose shot carries at most `max_share` of all the unshot power
-    /// (`unshot_total`) and whose
-    /// elements' unshot radiosity stays within a factor `uniformity` of the
-    /// region's mean, so that the region's light is spread about evenly
-    /// over it. Emitters
+    /// (`unshot_total`) and whose parts ([`UNIFORMITY_LEVELS`] below it)
+    /// have a mean unshot radiosity within a factor `uniformity` of the
+    /// region's, so that the region's light is spread about evenly over
+    /// it; regions smaller than [`SMALL_REGION`] skip that test. Emitters
     /// shoot in parts of a fixed share of their patch ([`EMITTER_LEVELS`]:
     /// direct shadows need the light's area sampled).
     /// `power(e)` is an element's unshot power.
@@ -229,34 +233,43 @@ impl ShooterTree {
         emitter: bool,
         rule: &HierarchyRule,
         power: impl Fn(u32) -> f64,
-        area: impl Fn(u32) -> f64,
         unshot_total: f64,
     ) -> u32 {
         let leaf = self.leaf[top as usize];
         if emitter {
             return self.emitter_shooter(leaf);
         }
-        let top_power = power(top);
-        let top_radiosity = top_power / area(top).max(f64::MIN_POSITIVE);
+        let radiosity = |n: u32| {
+            let p: f64 = self.elements(n).iter().map(|&e| power(e)).sum();
+            p / (self.nodes[n as usize].area as f64).max(f64::MIN_POSITIVE)
+        };
         let mut best = leaf;
         let mut n = self.nodes[leaf as usize].parent;
         while n != u32::MAX {
             let node = &self.nodes[n as usize];
             if node.polygon.len() <= MAX_NODE_VERTICES {
-                let (mut total, mut dimmest) = (0.0f64, f64::INFINITY);
-                for &e in self.elements(n) {
-                    let p = power(e);
-                    total += p;
-                    dimmest = dimmest.min(p / area(e).max(f64::MIN_POSITIVE));
-                }
+                let total: f64 = self.elements(n).iter().map(|&e| power(e)).sum();
                 if total > rule.max_share * unshot_total {
                     break;
                 }
                 let mean = total / (node.area as f64).max(f64::MIN_POSITIVE);
-                // Even light: no element far above or below the mean (a region
+                // Even light: no part far above or below the mean (a region
                 // half in shadow, say under a box, would place its hemicube
-                // where little of its light leaves from).
-                if top_radiosity > rule.uniformity * mean || dimmest * rule.uniformity < mean {
+                // where little of its light leaves from). The parts are the
+                // region's descendants UNIFORMITY_LEVELS down, not its
+                // elements: a finer mesh has darker and brighter single
+                // elements (corners, contacts), and judging by them would
+                // shrink the regions, and add shots, as the mesh grows.
+                let (mut brightest, mut dimmest) = (0.0f64, f64::INFINITY);
+                let small = node.radius <= self.small_radius;
+                self.for_parts(n, UNIFORMITY_LEVELS, &mut |part| {
+                    let b = radiosity(part);
+                    brightest = brightest.max(b);
+                    dimmest = dimmest.min(b);
+                });
+                if !small
+                    && (brightest > rule.uniformity * mean || dimmest * rule.uniformity < mean)
+                {
                     break;
                 }
                 best = n;
@@ -268,6 +281,19 @@ impl ShooterTree {
 }
 
 impl ShooterTree {
+    /// Calls `visit` with every descendant of `n` that lies `levels` below
+    /// it, or with a leaf on the way.
+    fn for_parts(&self, n: u32, levels: u32, visit: &mut impl FnMut(u32)) {
+        let node = &self.nodes[n as usize];
+        if levels == 0 || node.children.is_empty() {
+            visit(n);
+            return;
+        }
+        for &c in &node.children {
+            self.for_parts(c, levels - 1, visit);
+        }
+    }
+
     /// An emitter shoots in parts of a fixed size, whatever the mesh: the
     /// highest ancestor of `leaf` at least [`EMITTER_LEVELS`] below its
     /// patch's root (a quad light in 4 x 4 parts), so that direct shadows
@@ -294,6 +320,21 @@ impl ShooterTree {
             .map_or(leaf, |(_, &m)| m)
     }
 }
+
+/// Regions of at most this share of the scene's extent in radius shoot
+/// whole however uneven their light. Below that size, evenness tests see
+/// the mesh more than the light: a fine mesh resolves the patchwork of
+/// regions shot at different times, and judging by it kept shooters as
+/// small as a few elements, so the shots grew with the mesh (3,104 shots
+/// at 43k elements on Cornell against 1,296 at 11k; with this, 960 and
+/// 936). The near-field correction (`glsl/ff_node.comp`) weights such a
+/// region's children by their light, and the hemicube stands where the
+/// light is (`solve::shoot::light_centre`).
+pub const SMALL_REGION: f32 = 1.0 / 32.0;
+
+/// How many levels below a region its evenness is judged: 16 parts of a
+/// quad region.
+const UNIFORMITY_LEVELS: u32 = 2;
 
 /// Subdivision levels between an emitter patch and its shooting parts.
 pub const EMITTER_LEVELS: usize = 2;
@@ -433,7 +474,7 @@ mod tests {
         let even = |e: u32| if floor.contains(&e) { area(e) } else { 0.0 };
         let rule = HierarchyRule::default();
         let floor_power: f64 = floor.clone().map(even).sum();
-        let n = tree.shooter(top, false, &rule, even, area, floor_power);
+        let n = tree.shooter(top, false, &rule, even, floor_power);
         let count = tree.elements(n).len() as f64;
         let floor_count = floor.len() as f64;
         assert!(
@@ -442,15 +483,60 @@ mod tests {
         );
         // Emitters shoot in parts two levels below their patch (the floor
         // is no emitter, but its tree has the same shape).
-        let part = tree.shooter(top, true, &rule, even, area, floor_power);
+        let part = tree.shooter(top, true, &rule, even, floor_power);
         let parent = tree.nodes[part as usize].parent;
         let root = tree.nodes[parent as usize].parent;
         assert_eq!(tree.nodes[root as usize].parent, u32::MAX);
         // One bright element among dark ones shoots alone.
         let spot = |e: u32| if e == top { 100.0 * area(e) } else { even(e) };
         assert_eq!(
-            tree.shooter(top, false, &rule, spot, area, floor_power),
+            tree.shooter(top, false, &rule, spot, floor_power),
             tree.leaf[top as usize]
         );
+    }
+}
+
+#[cfg(test)]
+mod small_region_tests {
+    use super::*;
+    use crate::mesh::uniform;
+    use crate::scene::load_builtin;
+
+    /// The node a bright element shoots from, with its neighbours dark, on
+    /// a uniform Cornell mesh of edge `edge`.
+    fn spot_shooter(edge: f32) -> (ShooterTree, u32, u32) {
+        let scene = load_builtin("cornell").unwrap().unwrap();
+        let mesh = uniform(&scene, edge);
+        let tree = ShooterTree::new(&scene, &mesh);
+        let floor = mesh.patch_elements[0].clone();
+        let top = floor.start;
+        let area = |e: u32| mesh.elements[e as usize].area as f64;
+        let spot = |e: u32| {
+            if e == top {
+                100.0 * area(e)
+            } else if floor.contains(&e) {
+                area(e)
+            } else {
+                0.0
+            }
+        };
+        let total: f64 = floor.clone().map(spot).sum();
+        let n = tree.shooter(top, false, &HierarchyRule::default(), spot, total);
+        (tree, n, top)
+    }
+
+    #[test]
+    fn a_bright_element_joins_its_neighbours_once_the_region_is_small() {
+        // Coarse: the element's parent is larger than SMALL_REGION and
+        // uneven, so the element shoots alone.
+        let (tree, n, top) = spot_shooter(40.0);
+        assert_eq!(n, tree.leaf[top as usize]);
+        // Fine: the same spot of light (now one element of many) shoots
+        // with its neighbours from a region of at most SMALL_REGION.
+        let (tree, n, top) = spot_shooter(5.0);
+        let node = &tree.nodes[n as usize];
+        assert_ne!(n, tree.leaf[top as usize]);
+        assert!(node.radius <= tree.small_radius, "radius {}", node.radius);
+        assert!(tree.elements(n).len() >= 4);
     }
 }

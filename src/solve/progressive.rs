@@ -262,7 +262,6 @@ pub fn solve_batched(
                         emitter,
                         &rule,
                         |e| power(unshot[e as usize], areas[e as usize]),
-                        |e| areas[e as usize] as f64,
                         unshot_power,
                     );
                     clear_of(tree, shooter, grown, &nodes)

@@ -295,17 +295,22 @@ impl<'a> Shots<'a> {
             let (mean, power) = mean_unshot(tree, mesh, node, unshot);
             shot_power += power;
             let area = n.area.max(f32::MIN_POSITIVE);
+            let (centre, radius) = if region {
+                light_centre(tree, mesh, node, unshot)
+            } else {
+                (n.centre, n.radius)
+            };
             shooters.push(Shooter {
                 faces: self
                     .hemicube
-                    .face_view_proj(n.centre, n.normal, near_plane(area)),
+                    .face_view_proj(centre, n.normal, near_plane(area)),
                 unshot: mean,
                 area: n.area,
                 ranks: (n.range.start, n.range.end),
                 region: region.then_some(Region {
                     outline: &n.polygon,
-                    centre: n.centre,
-                    radius: n.radius,
+                    centre,
+                    radius,
                     normal: n.normal,
                     outline_area: n.polygon_area,
                     parts,
@@ -398,6 +403,36 @@ fn mean_unshot(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]]) 
         sum.map(|x| (x / area as f64) as f32),
         (sum[0] + sum[1] + sum[2]) / 3.0,
     )
+}
+
+/// Where a region's unshot light leaves from: its elements' centres
+/// weighted by their unshot power (the centroid when it has none), and the
+/// outline's radius around that point.
+fn light_centre(
+    tree: &ShooterTree,
+    mesh: &Mesh,
+    node: u32,
+    unshot: &[[f32; 4]],
+) -> (glam::Vec3, f32) {
+    let n = &tree.nodes[node as usize];
+    let (mut weighted, mut total) = (glam::DVec3::ZERO, 0.0f64);
+    for &e in tree.elements(node) {
+        let el = &mesh.elements[e as usize];
+        let u = unshot[e as usize];
+        let p = (u[0] + u[1] + u[2]) as f64 * el.area as f64;
+        weighted += el.centre.as_dvec3() * p;
+        total += p;
+    }
+    if total <= 0.0 {
+        return (n.centre, n.radius);
+    }
+    let centre = (weighted / total).as_vec3();
+    let radius = n
+        .polygon
+        .iter()
+        .map(|v| v.distance(centre))
+        .fold(0.0, f32::max);
+    (centre, radius)
 }
 
 /// How a region's unshot light spreads over its children: each child's
