@@ -15,7 +15,8 @@
 //   V_j = F_hc(j) / F(c -> j)   (the fraction of j that c sees, in [0, 1])
 //
 // q runs over the centres of j's sub-cells (halfway from j's centre to each
-// corner). A region's unshot light is not quite even: where the CPU gives
+// corner), or is j's centre alone where j is small beside its distance to
+// the region. A region's unshot light is not quite even: where the CPU gives
 // its children's outlines and mean unshot radiosity (relative to the
 // region's), F(q -> outline) becomes sum_k w_k F(q -> child k), so a
 // receiver next to the dim end of a region gets less than one next to its
@@ -47,6 +48,9 @@ layout(set = 0, binding = 8, std430) readonly buffer Ranks { uint rank[]; };
 const float PI = 3.14159265358979;
 const float NEAR_RADII = 8.0;
 const float MIN_PIXELS = 2.0;
+// Receivers whose radius is under this share of their gap to the region
+// integrate it at their centre alone.
+const float SINGLE_POINT_GAP = 0.25;
 // An outline of 8 corners clipped by one plane has at most 9.
 const int MAX_CORNERS = 9;
 
@@ -129,6 +133,15 @@ uint corrected(uint j, uint hemicube_ff) {
     if (visible <= 0.0) {
         return 0u;
     }
+    // A receiver small beside its gap to the region takes the factor at
+    // its centre (midpoint rule, error O((r_j / gap)^2)); only those close
+    // to the region for their size average four sub-cells.
+    float rj = 0.0;
+    for (int k = 0; k < count; ++k) {
+        rj = max(rj, distance(element[k], cj));
+    }
+    float gap = distance(cj, c) - shot.centre_radius.w;
+    int points = rj < SINGLE_POINT_GAP * gap ? 1 : count;
     float exact = 0.0;
     int children = int(shot.child_count);
     for (int part = 0; part < max(children, 1); ++part) {
@@ -156,6 +169,10 @@ uint corrected(uint j, uint hemicube_ff) {
             middle += outline[k];
         }
         middle /= float(oc);
+        if (points == 1) {
+            exact += weight * point_to_polygon(cj, nj, outline, oc, n, middle);
+            continue;
+        }
         float sum = 0.0;
         for (int k = 0; k < count; ++k) {
             vec3 q = cj + 0.5 * (element[k] - cj);
