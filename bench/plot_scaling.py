@@ -29,7 +29,10 @@ for solver, colour in [("element", "tab:red"), ("hierarchical", "tab:blue")]:
     label = solver + ("" if slope is None else f"  (time ~ n^{slope:.2f})")
     ax.loglog(n, t, "o-", color=colour, label=label)
     for a, b, r in zip(n, t, runs):
-        ax.annotate(f"{r['shots']} shots", (a, b), textcoords="offset points", xytext=(5, -12), fontsize=7, color=colour)
+        note = f"{r['shots']} shots"
+        if r.get("vs_element_rel_rms") is not None:
+            note += f", {100 * r['vs_element_rel_rms']:.1f}% from element"
+        ax.annotate(note, (a, b), textcoords="offset points", xytext=(5, -12), fontsize=7, color=colour)
 ax.set_xlabel("elements")
 ax.set_ylabel("solve wall seconds")
 ax.set_title(f"Cornell box, converge {doc['converge']:g}, {doc['device']}")
