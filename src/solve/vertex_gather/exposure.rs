@@ -31,7 +31,6 @@ const EXPOSURE_RAYS: usize = 8;
 /// the back of a surface (the inside of a box standing on it); one ray that
 /// escapes or meets a front makes it exposed.
 pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -> Vec<ExposedPart> {
-    let eps = 4.0 * occluders.epsilon();
     mesh.elements
         .par_iter()
         .enumerate()
@@ -50,18 +49,7 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
                     let u = (i as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
                     let w = (j as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
                     let p = sampler.point(u, w);
-                    let start = p + eps * el.normal;
-                    let sees_out = (0..EXPOSURE_RAYS).any(|_| {
-                        let (r, phi) = (rng.next_f32().sqrt(), 2.0 * PI * rng.next_f32());
-                        let d = r * phi.cos() * t
-                            + r * phi.sin() * b
-                            + (1.0 - r * r).max(0.0).sqrt() * el.normal;
-                        match occluders.first_hit(start, d) {
-                            None => true,
-                            Some((_, patch)) => scene.patches[patch as usize].normal.dot(d) < 0.0,
-                        }
-                    });
-                    if sees_out {
+                    if !encloses(scene, occluders, p, el.normal, (t, b), &mut rng) {
                         exposed += 1;
                         centre += p;
                     }
@@ -79,3 +67,98 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
         })
         .collect()
 }
+
+/// Whether the point `p` (on a surface of unit normal `n`, tangents `t`,
+/// `b`) is enclosed: every one of a few cosine-distributed rays from it
+/// meets the back of a surface (the inside of a box standing on it).
+pub(super) fn encloses(
+    scene: &Scene,
+    occluders: &Occluders,
+    p: Vec3,
+    n: Vec3,
+    (t, b): (Vec3, Vec3),
+    rng: &mut Pcg32,
+) -> bool {
+    let start = p + 4.0 * occluders.epsilon() * n;
+    !(0..EXPOSURE_RAYS).any(|_| {
+        let (r, phi) = (rng.next_f32().sqrt(), 2.0 * PI * rng.next_f32());
+        let d = r * phi.cos() * t + r * phi.sin() * b + (1.0 - r * r).max(0.0).sqrt() * n;
+        match occluders.first_hit(start, d) {
+            None => true,
+            Some((_, patch)) => scene.patches[patch as usize].normal.dot(d) < 0.0,
+        }
+    })
+}
+
+/// Where a vertex is gathered when the point `frames` gives it (moved a
+/// hair toward its patch's centre) is enclosed: a vertex on a contact
+/// line (the foot of a box on the floor) moved that way lands under the
+/// box and would read black, though the floor beside the box is lit up to
+/// the line. Such a vertex is gathered a hair inside an element around it
+/// that is not enclosed (it stays put when every one is).
+pub(super) fn unenclosed(
+    scene: &Scene,
+    occluders: &Occluders,
+    display: &Mesh,
+    vertices: &[u32],
+    frames: &mut [(Vec3, Vec3, u32)],
+) {
+    // Tested a step further toward the patch's centre than `frames` goes:
+    // a hair inside a box, every ray would start within the ray tracer's
+    // epsilon of its wall and pass for escaping.
+    let enclosed: Vec<bool> = frames
+        .par_iter()
+        .zip(vertices.par_iter())
+        .enumerate()
+        .map(|(k, (&(_, n, patch), &v))| {
+            let Some(surface) = scene.patches.get(patch as usize) else {
+                return false;
+            };
+            let corner = display.vertices[v as usize];
+            let p = corner + ELEMENT_INSET * (surface.centroid() - corner);
+            let mut rng = Pcg32::new(0x0e9c_105e, k as u64);
+            encloses(scene, occluders, p, n, tangent_frame(n), &mut rng)
+        })
+        .collect();
+    if !enclosed.contains(&true) {
+        return;
+    }
+    let mut around: Vec<Vec<u32>> = vec![Vec::new(); display.vertices.len()];
+    for (k, el) in display.elements.iter().enumerate() {
+        for &v in el.corners() {
+            around[v as usize].push(k as u32);
+        }
+    }
+    frames
+        .par_iter_mut()
+        .zip(vertices.par_iter())
+        .zip(enclosed.par_iter())
+        .enumerate()
+        .filter(|(_, (_, &shut))| shut)
+        .for_each(|(k, ((frame, &v), _))| {
+            let mut rng = Pcg32::new(0x0e9c_105f, k as u64);
+            let corner = display.vertices[v as usize];
+            for &e in &around[v as usize] {
+                let el = &display.elements[e as usize];
+                if el.patch != frame.2 {
+                    continue;
+                }
+                let p = corner + ELEMENT_INSET * (el.centre - corner);
+                if !encloses(
+                    scene,
+                    occluders,
+                    p,
+                    frame.1,
+                    tangent_frame(frame.1),
+                    &mut rng,
+                ) {
+                    frame.0 = p;
+                    return;
+                }
+            }
+        });
+}
+
+/// How far into an element a vertex gathered from its side moves: a share
+/// of the way to the element's centre.
+const ELEMENT_INSET: f32 = 0.01;
