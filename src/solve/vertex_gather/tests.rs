@@ -122,18 +122,23 @@ fn lit_by_the_light_alone(mesh: &Mesh) -> Vec<[f32; 3]> {
         .collect()
 }
 
-#[test]
-fn no_light_leaks_under_a_box_standing_on_the_floor() {
-    let (s, light) = box_on_the_floor();
-    let mesh = uniform(&s, 0.1);
-    let tree = ShooterTree::new(&s, &mesh);
-    // Direct light only, and no pass at the element centres (which would
-    // add a bounce).
+/// The gather of the light alone (no pass at the element centres, which
+/// would add a bounce) on `scene` meshed at edge 0.1, with the mesh.
+fn direct_gather(scene: &Scene) -> (Mesh, ShooterTree, Vec<[f32; 3]>, VertexGather) {
+    let mesh = uniform(scene, 0.1);
+    let tree = ShooterTree::new(scene, &mesh);
     let b = lit_by_the_light_alone(&mesh);
     let settings = VertexGather {
         source_passes: 0,
         ..VertexGather::default()
     };
+    (mesh, tree, b, settings)
+}
+
+#[test]
+fn no_light_leaks_under_a_box_standing_on_the_floor() {
+    let (s, light) = box_on_the_floor();
+    let (mesh, tree, b, settings) = direct_gather(&s);
     let got = gather_vertices(&s, &mesh, &tree, &b, &mesh, &settings);
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
     let (mut under, mut beside) = (0, 0);
@@ -171,13 +176,7 @@ fn a_vertex_at_the_foot_of_a_box_reads_the_floor_beside_it() {
     // vertex on the box's foot moved toward it would be gathered under
     // the box, in the dark (regression: the tall block's feet in Cornell).
     let (s, light) = box_on_a_floor(-2.2, 4.2);
-    let mesh = uniform(&s, 0.1);
-    let tree = ShooterTree::new(&s, &mesh);
-    let b = lit_by_the_light_alone(&mesh);
-    let settings = VertexGather {
-        source_passes: 0,
-        ..VertexGather::default()
-    };
+    let (mesh, tree, b, settings) = direct_gather(&s);
     let got = gather_vertices(&s, &mesh, &tree, &b, &mesh, &settings);
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
     let mut feet = 0;
@@ -209,13 +208,7 @@ fn just_past_an_umbra_the_light_is_not_taken_as_hidden() {
     // and the first-ray test called the light hidden there (a step along
     // umbra lines; regression: the floor beside Cornell's short block).
     let (s, light) = box_on_the_floor();
-    let mesh = uniform(&s, 0.1);
-    let tree = ShooterTree::new(&s, &mesh);
-    let b = lit_by_the_light_alone(&mesh);
-    let settings = VertexGather {
-        source_passes: 0,
-        ..VertexGather::default()
-    };
+    let (mesh, tree, b, settings) = direct_gather(&s);
     let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
     // The box (x 0.6..1.2, 0.3 high) casts an umbra beyond x = 1.2 that
     // ends where the line from the light's edge x = 0.5 over the box's
