@@ -37,6 +37,7 @@ use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
 use crate::formfactor::sampling::{grid, Pcg32};
+use crate::geom::tangent_frame;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -72,6 +73,31 @@ impl Default for VertexGather {
     }
 }
 
+/// The point of the convex polygon `poly` (normal `normal`) nearest to
+/// `q`, which lies in its plane.
+fn nearest_in_polygon(poly: &[Vec3], normal: Vec3, q: Vec3) -> Vec3 {
+    let edges = (0..poly.len()).map(|k| (poly[k], poly[(k + 1) % poly.len()]));
+    if edges
+        .clone()
+        .all(|(a, b)| (b - a).cross(q - a).dot(normal) >= 0.0)
+    {
+        return q;
+    }
+    edges
+        .map(|(a, b)| {
+            let t = ((q - a).dot(b - a) / (b - a).length_squared().max(f32::MIN_POSITIVE))
+                .clamp(0.0, 1.0);
+            a + t * (b - a)
+        })
+        .min_by(|x, y| x.distance_squared(q).total_cmp(&y.distance_squared(q)))
+        .unwrap_or(q)
+}
+
+/// A reflecting leaf whose form factor from the receiver is over the first
+/// value starts to lend the radiosity beside the receiver
+/// ([`Gather::beside`]) instead of its mean; over the second, only that.
+const CLOSE_FF: (f32, f32) = (0.05, 0.2);
+
 /// How far inside a light its corner rays aim (a share of the way to its
 /// centre): off the light's own edge, which may touch the ceiling around it.
 const CORNER_INSET: f64 = 1e-3;
@@ -105,6 +131,8 @@ struct Source {
     lo: f32,
     hi: f32,
     emits: bool,
+    /// Some of its elements are partly or wholly enclosed (under a box).
+    covered: bool,
 }
 
 /// Radiosity at every vertex of `display`, gathered from the element
@@ -231,7 +259,8 @@ impl<'a> FinalGather<'a> {
             &vertices,
             &mut frames,
         );
-        for (&g, value) in todo.iter().zip(self.gather.at_points(&frames)) {
+        let vals = self.gather.at_points(&frames);
+        for (&g, value) in todo.iter().zip(vals) {
             cache.values.insert(key(groups.members[g].0), value);
         }
         groups
@@ -279,15 +308,17 @@ impl Gather<'_> {
                 if material.reflectance.max_element() > 0.0 {
                     let at = Receiver { p, n, patch };
                     let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
-                    gathered = self.at_point(&at, &mut rng);
+                    gathered = self.at_point(&at, true, &mut rng);
                 }
                 (material.emission * PI + material.reflectance * gathered).to_array()
             })
             .collect()
     }
 
-    /// Sum over all sources of B_s F(at -> s) V(at, s).
-    fn at_point(&self, at: &Receiver, rng: &mut Pcg32) -> Vec3 {
+    /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
+    /// a leaf that fills much of the view takes the radiosity at its
+    /// point beside the receiver instead of its mean ([`Self::beside`]).
+    fn at_point(&self, at: &Receiver, look_closer: bool, rng: &mut Pcg32) -> Vec3 {
         let settings = &self.settings;
         let mut gathered = Vec3::ZERO;
         // Clusters of patches first: far, even ones whole, the rest down
@@ -319,23 +350,83 @@ impl Gather<'_> {
             }
             let src = &self.sources[n as usize];
             let even = is_even(src.lo, src.hi, settings.uniformity);
-            if !src.emits && src.radiosity.max_element() <= 0.0 && even {
+            let distance = at.p.distance(node.centre);
+            let near = node.radius > NEAR_RADIUS * distance;
+            // A dark node adds nothing, unless it is close by and covered:
+            // its dark mean may hide a lit sliver (elements under a box but
+            // for a strip along its foot) that `beside` finds in its leaves.
+            let look_beside = look_closer && near && src.covered;
+            if !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside {
                 continue;
             }
             if !at.faces(node.centre, node.normal, &node.polygon) {
                 continue;
             }
-            let distance = at.p.distance(node.centre);
             let far = node.radius <= settings.opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
             if !take_whole {
                 stack.extend_from_slice(&node.children);
                 continue;
             }
-            let near = node.radius > NEAR_RADIUS * distance;
-            gathered += src.radiosity * at.form_factor(src, near, &self.occluders, settings, rng);
+            let ff = at.form_factor(src, near, &self.occluders, settings, rng);
+            let mut radiosity = src.radiosity;
+            if look_beside && node.children.is_empty() && !src.emits && ff > CLOSE_FF.0 {
+                if let Some(b) = self.beside(at, n, rng) {
+                    let w = ((ff - CLOSE_FF.0) / (CLOSE_FF.1 - CLOSE_FF.0)).min(1.0);
+                    radiosity = radiosity.lerp(b, w);
+                }
+            }
+            gathered += radiosity * ff;
         }
         gathered
+    }
+
+    /// The radiosity of leaf `n` where a receiver close to it looks: at
+    /// the foot of the receiver on the leaf's plane, moved as far again
+    /// along the receiver's facing direction. A receiver at height h
+    /// over a surface takes most of that surface's form factor from
+    /// within a few h, so a leaf straddling a shadow or a contact (a
+    /// solved floor element under the corner of a box) would otherwise
+    /// lend its mean to a receiver that sees only its lit side: the foot
+    /// of a lit box face read 75% dark on Cornell. `None` where that
+    /// point is enclosed.
+    fn beside(&self, at: &Receiver, n: u32, rng: &mut Pcg32) -> Option<Vec3> {
+        let node = &self.tree.nodes[n as usize];
+        let height = (at.p - node.centre).dot(node.normal);
+        if height <= 0.0 {
+            return None;
+        }
+        let foot = at.p - height * node.normal;
+        let along = (at.n - at.n.dot(node.normal) * node.normal).normalize_or_zero();
+        // Where the receiver looks may lie just across the leaf's edge (a
+        // solved element's edge along the foot of a box): then the leaf's
+        // point nearest to it, a hair inside.
+        // At least a hundredth of the leaf's radius out, clear of the
+        // ray tracer's epsilon and of the receiver's own surface.
+        let out = foot + height.max(0.01 * node.radius) * along;
+        let mut q = nearest_in_polygon(&node.polygon, node.normal, out);
+        if q != out {
+            q += 1e-3 * (node.centre - q);
+        }
+        let occluders = &self.occluders;
+        if exposure::encloses(
+            self.scene,
+            occluders,
+            q,
+            node.normal,
+            tangent_frame(node.normal),
+            rng,
+        ) {
+            return None;
+        }
+        let surface = &self.scene.patches[node.patch as usize];
+        let material = self.scene.material_of(surface);
+        let there = Receiver {
+            p: q,
+            n: node.normal,
+            patch: node.patch,
+        };
+        Some(material.emission * PI + material.reflectance * self.at_point(&there, false, rng))
     }
 }
 
@@ -367,7 +458,9 @@ fn sources(
         .map(|(n, node)| {
             let (mut sum, mut area) = (Vec3::ZERO, 0.0f32);
             let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
+            let mut covered = false;
             for &e in tree.elements(n as u32) {
+                covered |= exposed[e as usize].share < 1.0;
                 // Means over the exposed area: the covered part is dark
                 // and rays to it are blocked anyway.
                 let share = exposed[e as usize].share;
@@ -383,17 +476,7 @@ fn sources(
                 hi = hi.max(level);
             }
             let c = &node.polygon;
-            let fan: Vec<_> = (1..c.len().saturating_sub(1))
-                .map(|k| (c[0], c[k], c[k + 1]))
-                .collect();
-            let mut cdf = Vec::with_capacity(fan.len());
-            let mut total = 0.0;
-            for (a, b, d) in &fan {
-                total += (*b - *a).cross(*d - *a).length();
-                cdf.push(total);
-            }
-            cdf.iter_mut()
-                .for_each(|x| *x /= total.max(f32::MIN_POSITIVE));
+            let (fan, cdf) = fan_of(c);
             Source {
                 polygon: c.iter().map(|v| v.as_dvec3()).collect(),
                 fan,
@@ -405,6 +488,7 @@ fn sources(
                 lo,
                 hi,
                 emits: scene.patch_material(node.patch).is_emitter(),
+                covered,
             }
         })
         .collect()
@@ -505,13 +589,23 @@ impl Receiver {
         occluders: &Occluders,
         rng: &mut Pcg32,
     ) -> (f32, f32) {
+        // Samples fall on the part of the source in front of the receiver:
+        // a source half behind it (the floor element under a box's
+        // corner, seen from the box's foot) would otherwise put most of
+        // them where the kernel is zero, and a sliver in front none.
+        let clipped = front_part(&src.polygon, self.p, self.n).map(|part| fan_of(&part));
+        let fan = match &clipped {
+            Some((fan, _)) if fan.is_empty() => return (0.0, 0.0),
+            Some((fan, cdf)) => (fan.as_slice(), cdf.as_slice()),
+            None => (src.fan.as_slice(), src.cdf.as_slice()),
+        };
         let (rows, cols) = grid(rays);
         let (mut all, mut seen) = (0.0f32, 0.0f32);
         for r in 0..rows {
             for c in 0..cols {
                 let u = (r as f32 + rng.next_f32()) / rows as f32;
                 let w = (c as f32 + rng.next_f32()) / cols as f32;
-                let x = src.point(u, w);
+                let x = fan_point(fan, u, w);
                 let d = x - self.p;
                 let r2 = d.length_squared();
                 let (cos_v, cos_s) = (self.n.dot(d), -src.normal.dot(d));
@@ -532,17 +626,56 @@ impl Receiver {
     }
 }
 
-impl Source {
-    /// The point for (u, w) in the unit square, uniform in area: `u` picks
-    /// the fan triangle and the position across it.
-    fn point(&self, u: f32, w: f32) -> Vec3 {
-        let k = self.cdf.partition_point(|&c| c < u).min(self.fan.len() - 1);
-        let lo = if k == 0 { 0.0 } else { self.cdf[k - 1] };
-        let uu = ((u - lo) / (self.cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
-        let (a, b, e) = self.fan[k];
-        let s = uu.sqrt();
-        a + s * ((b - a) + w * (e - b))
+/// A convex polygon's fan triangles from its corner 0 and their
+/// cumulative area shares.
+type Fan = (Vec<(Vec3, Vec3, Vec3)>, Vec<f32>);
+
+fn fan_of(c: &[Vec3]) -> Fan {
+    let fan: Vec<_> = (1..c.len().saturating_sub(1))
+        .map(|k| (c[0], c[k], c[k + 1]))
+        .collect();
+    let mut cdf = Vec::with_capacity(fan.len());
+    let mut total = 0.0;
+    for (a, b, d) in &fan {
+        total += (*b - *a).cross(*d - *a).length();
+        cdf.push(total);
     }
+    cdf.iter_mut()
+        .for_each(|x| *x /= total.max(f32::MIN_POSITIVE));
+    (fan, cdf)
+}
+
+/// The point of a fan for (u, w) in the unit square, uniform in area: `u`
+/// picks the fan triangle and the position across it.
+fn fan_point((fan, cdf): (&[(Vec3, Vec3, Vec3)], &[f32]), u: f32, w: f32) -> Vec3 {
+    let k = cdf.partition_point(|&c| c < u).min(fan.len() - 1);
+    let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
+    let uu = ((u - lo) / (cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);
+    let (a, b, e) = fan[k];
+    let s = uu.sqrt();
+    a + s * ((b - a) + w * (e - b))
+}
+
+/// The part of the convex polygon `poly` in front of the plane through `p`
+/// with normal `n`; `None` when all of it is.
+fn front_part(poly: &[DVec3], p: Vec3, n: Vec3) -> Option<Vec<Vec3>> {
+    let side = |v: Vec3| (v - p).dot(n);
+    let corners: Vec<Vec3> = poly.iter().map(|v| v.as_vec3()).collect();
+    if corners.iter().all(|&v| side(v) > 0.0) {
+        return None;
+    }
+    let mut out = Vec::with_capacity(corners.len() + 1);
+    for k in 0..corners.len() {
+        let (a, b) = (corners[k], corners[(k + 1) % corners.len()]);
+        let (da, db) = (side(a), side(b));
+        if da > 0.0 {
+            out.push(a);
+        }
+        if (da > 0.0) != (db > 0.0) {
+            out.push(a + (b - a) * (da / (da - db)));
+        }
+    }
+    Some(out)
 }
 
 mod clusters;

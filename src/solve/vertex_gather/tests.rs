@@ -325,3 +325,55 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     let again = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
     assert!(again.is_empty());
 }
+
+#[test]
+fn the_foot_of_a_box_face_sees_the_floor_in_front_of_it() {
+    // Cornell's tall block: the floor element under its front-right corner
+    // is enclosed but for a sliver in front of the front face, and the
+    // face's foot (a hair above the floor) takes most of its floor view
+    // from that sliver. Every exposed surface at radiosity 1 (the light
+    // dark): the foot must gather what the face does a little higher up.
+    // It read about half of it when the sliver was sampled with the
+    // whole element (no sample landed in it) or lent the element's dark
+    // mean.
+    let s = crate::scene::load_builtin("cornell").unwrap().unwrap();
+    let mesh = uniform(&s, crate::mesh::default_max_edge(&s));
+    let tree = ShooterTree::new(&s, &mesh);
+    let occluders = Occluders::new(&s);
+    let shares = exposure::exposed_parts(&s, &mesh, &occluders);
+    let b: Vec<[f32; 3]> = mesh
+        .elements
+        .iter()
+        .zip(&shares)
+        .map(|(e, part)| match s.patch_material(e.patch).is_emitter() {
+            true => [0.0; 3],
+            false => [part.share; 3],
+        })
+        .collect();
+    let settings = VertexGather {
+        source_passes: 0,
+        ..VertexGather::default()
+    };
+    let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+    // The front face of the tall block: from (423, 0, 247) to (265, 0, 296).
+    let front = s
+        .patches
+        .iter()
+        .position(|p| {
+            p.vertices
+                .iter()
+                .any(|v| *v == Vec3::new(265.0, 0.0, 296.0))
+                && p.vertices
+                    .iter()
+                    .any(|v| *v == Vec3::new(423.0, 0.0, 247.0))
+        })
+        .expect("the tall block's front face") as u32;
+    let normal = s.patches[front as usize].normal;
+    let on_face = |y: f32| (Vec3::new(317.67, y, 279.67), normal, front);
+    let got = gather.at_points(&[on_face(0.0165), on_face(8.0)]);
+    let (foot, higher) = (got[0][0], got[1][0]);
+    assert!(
+        (foot - higher).abs() < 0.08 * higher,
+        "foot {foot} against {higher} at 8 units up"
+    );
+}
