@@ -313,7 +313,13 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         let (patch, p) = (display.elements[k].patch, display.elements[k].centre);
         // Every split is on the floor where the box hides part of the
         // light, or right beside the box; none where the floor sees all.
-        assert_eq!(patch, 0, "split at {p} off the floor");
+        // The box's faces may split at their foot only: there the lit
+        // floor beside the box shows (`Gather::beside` gathers the floor
+        // where the foot looks, a bounce the dark floor sources lack).
+        if patch != 0 {
+            assert!(p.y < 0.15, "split at {p} off the floor, above a box's foot");
+            continue;
+        }
         let exact = point_to_polygon(p.as_dvec3(), DVec3::Y, &light) as f32;
         let seen = gather.at_points(&[(p, Vec3::Y, 0)])[0][0] / 0.5;
         assert!(
