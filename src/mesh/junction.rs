@@ -177,6 +177,13 @@ fn cut(vertices: &[Vec3], el: &Element, ring: &mut Vec<RingVertex>, out: &mut Ve
                 at(&ring[i]),
                 at(&ring[(i + 1) % m]),
             );
+            // Only a corner that turns the ring's way: a corner whose
+            // sides differ but that lies on a straight line anyway (one
+            // inserted on a tilted plane, a rounding off its side) would
+            // cut a sliver facing either way.
+            if (q - p).cross(r - q).dot(normal) <= 1e-9 * (q - p).length() * (r - q).length() {
+                continue;
+            }
             // A remainder of four corners becomes a quad: preferred.
             let quad_left = quads && m == 5 && {
                 let left: Vec<RingVertex> = (0..m).filter(|&k| k != i).map(|k| ring[k]).collect();
@@ -326,6 +333,36 @@ mod tests {
             assert!(remove_t_junctions(&mut mesh, &s) > 0);
             assert_clean(&s, &mesh);
         }
+    }
+
+    #[test]
+    #[ignore = "open bug: a near-duplicate vertex (two f32 steps apart) makes a sliver facing away"]
+    fn tilted_overlapping_rectangles_at_a_fine_edge_stay_sound() {
+        // Found by `uniform_meshes_of_coplanar_rectangles_are_clean` (its
+        // shrunk input): element (0.125, 1.3125, 11.75), (0.125, 1.35,
+        // 11.800001), (0.125, 1.35, 11.799999) of a tilted copy, whose last
+        // two corners are one point. Welding junctions within rounding of
+        // an edge's end did not remove it; where it is made is not found.
+        let rects = [
+            [2.0, 0.0, 3.0, 1.0],
+            [0.0, 0.0, 2.0, 3.0],
+            [0.0, 2.0, 2.0, 3.0],
+        ];
+        let mut polys: Vec<Vec<Vec3>> =
+            rects.iter().map(|r| rect(r[0], r[1], r[2], r[3])).collect();
+        polys.push(rect(0.0, 2.0, 1.5, 3.0));
+        polys.push(rect(1.5, 2.0, 3.0, 3.0));
+        let tilt = |p: Vec3| Vec3::new(p.x, 0.6 * p.y, 10.0 + 0.8 * p.y);
+        let tilted: Vec<Vec<Vec3>> = polys
+            .iter()
+            .map(|p| p.iter().map(|&q| tilt(q)).collect())
+            .collect();
+        polys.extend(tilted);
+        let refs: Vec<&[Vec3]> = polys.iter().map(|p| p.as_slice()).collect();
+        let s = scene(&refs);
+        let mesh = crate::mesh::uniform(&s, 0.15);
+        mesh.sanity_check(&s).unwrap();
+        mesh.check_coplanar(&s).unwrap();
     }
 
     /// Up to 6 rectangles on a 4 x 4 integer grid (neighbours, overlaps,
