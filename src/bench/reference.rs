@@ -104,8 +104,9 @@ pub struct ReferenceInfo {
 /// Bumped whenever the cached data or its meaning changes. 2: the
 /// per-pixel gathered reference with its shading mask (1 was a solve's
 /// image on the bench mesh). 3: its samples at the render's jittered
-/// pixel samples (2 took a 4x4 grid).
-pub const CACHE_FORMAT: u32 = 3;
+/// pixel samples (2 took a 4x4 grid). 4: gathered with the corner rays to
+/// lights, clipped sources and close covered leaves (`vertex_gather`).
+pub const CACHE_FORMAT: u32 = 4;
 
 /// A reference as stored in the cache.
 #[derive(Debug, Clone, Serialize, Deserialize)]
