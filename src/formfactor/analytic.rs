@@ -21,7 +21,7 @@ use crate::mesh::Mesh;
 use crate::scene::Scene;
 
 /// Clips `poly` to the half-space `(x - p) . n >= 0` (Sutherland-Hodgman).
-fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
+pub(crate) fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
     let k = poly.len();
     let d: Vec<f64> = poly.iter().map(|&v| (v - p).dot(n)).collect();
     if d.iter().all(|&x| x >= 0.0) {

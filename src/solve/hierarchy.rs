@@ -239,34 +239,32 @@ impl ShooterTree {
         if emitter {
             return self.emitter_shooter(leaf);
         }
-        let radiosity = |n: u32| {
-            let p: f64 = self.elements(n).iter().map(|&e| power(e)).sum();
-            p / (self.nodes[n as usize].area as f64).max(f64::MIN_POSITIVE)
-        };
         let mut best = leaf;
         let mut n = self.nodes[leaf as usize].parent;
         while n != u32::MAX {
             let node = &self.nodes[n as usize];
             if node.polygon.len() <= MAX_NODE_VERTICES {
-                let total: f64 = self.elements(n).iter().map(|&e| power(e)).sum();
-                if total > rule.max_share * unshot_total {
-                    break;
-                }
-                let mean = total / (node.area as f64).max(f64::MIN_POSITIVE);
                 // Even light: no part far above or below the mean (a region
                 // half in shadow, say under a box, would place its hemicube
                 // where little of its light leaves from). The parts are the
                 // region's descendants UNIFORMITY_LEVELS down, not its
                 // elements: a finer mesh has darker and brighter single
                 // elements (corners, contacts), and judging by them would
-                // shrink the regions, and add shots, as the mesh grows.
-                let (mut brightest, mut dimmest) = (0.0f64, f64::INFINITY);
-                let small = node.radius <= self.small_radius;
+                // shrink the regions, and add shots, as the mesh grows. The
+                // parts split the region's elements, so they sum to its power.
+                let (mut total, mut brightest, mut dimmest) = (0.0f64, 0.0f64, f64::INFINITY);
                 self.for_parts(n, UNIFORMITY_LEVELS, &mut |part| {
-                    let b = radiosity(part);
+                    let p: f64 = self.elements(part).iter().map(|&e| power(e)).sum();
+                    let b = p / (self.nodes[part as usize].area as f64).max(f64::MIN_POSITIVE);
+                    total += p;
                     brightest = brightest.max(b);
                     dimmest = dimmest.min(b);
                 });
+                if total > rule.max_share * unshot_total {
+                    break;
+                }
+                let mean = total / (node.area as f64).max(f64::MIN_POSITIVE);
+                let small = node.radius <= self.small_radius;
                 if !small
                     && (brightest > rule.uniformity * mean || dimmest * rule.uniformity < mean)
                 {
@@ -329,7 +327,7 @@ impl ShooterTree {
 /// at 43k elements on Cornell against 1,296 at 11k; with this, 960 and
 /// 936). The near-field correction (`glsl/ff_node.comp`) weights such a
 /// region's children by their light, and the hemicube stands where the
-/// light is (`solve::shoot::light_centre`).
+/// light is (`solve::shoot::unshot_light`).
 pub const SMALL_REGION: f32 = 1.0 / 32.0;
 
 /// How many levels below a region its evenness is judged: 16 parts of a

@@ -292,11 +292,14 @@ impl<'a> Shots<'a> {
         let mut shooters = Vec::with_capacity(nodes.len());
         for (&node, parts) in nodes.iter().zip(&parts) {
             let n = &tree.nodes[node as usize];
-            let (mean, power) = mean_unshot(tree, mesh, node, unshot);
-            shot_power += power;
+            let light = unshot_light(tree, mesh, node, unshot);
+            shot_power += light.power;
             let area = n.area.max(f32::MIN_POSITIVE);
+            // A region's hemicube stands where its light leaves from; the
+            // outline's radius is taken around that point.
             let (centre, radius) = if region {
-                light_centre(tree, mesh, node, unshot)
+                let radius = n.polygon.iter().map(|v| v.distance(light.centre));
+                (light.centre, radius.fold(0.0, f32::max))
             } else {
                 (n.centre, n.radius)
             };
@@ -304,7 +307,7 @@ impl<'a> Shots<'a> {
                 faces: self
                     .hemicube
                     .face_view_proj(centre, n.normal, near_plane(area)),
-                unshot: mean,
+                unshot: light.mean,
                 area: n.area,
                 ranks: (n.range.start, n.range.end),
                 region: region.then_some(Region {
@@ -328,7 +331,11 @@ impl<'a> Shots<'a> {
         unshot: &[[f32; 4]],
         salt: u64,
     ) -> Result<(Vec<[f32; 4]>, f64)> {
-        let (mean, shot_power) = mean_unshot(&self.tree, self.mesh, node, unshot);
+        let UnshotLight {
+            mean,
+            power: shot_power,
+            ..
+        } = unshot_light(&self.tree, self.mesh, node, unshot);
         let n = &self.tree.nodes[node as usize];
         let ranks = (n.range.start, n.range.end);
         let area = n.area;
@@ -387,52 +394,40 @@ impl<'a> Shots<'a> {
     }
 }
 
-/// A node's mean unshot radiosity over its elements (rgb) and the power
-/// that leaves it (mean channel).
-fn mean_unshot(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]]) -> ([f32; 3], f64) {
-    let n = &tree.nodes[node as usize];
-    let mut sum = [0.0f64; 3];
-    for &e in tree.elements(node) {
-        let a = mesh.elements[e as usize].area as f64;
-        for c in 0..3 {
-            sum[c] += unshot[e as usize][c] as f64 * a;
-        }
-    }
-    let area = n.area.max(f32::MIN_POSITIVE);
-    (
-        sum.map(|x| (x / area as f64) as f32),
-        (sum[0] + sum[1] + sum[2]) / 3.0,
-    )
+/// A node's unshot light, from one pass over its elements.
+struct UnshotLight {
+    /// Mean unshot radiosity over its elements (rgb).
+    mean: [f32; 3],
+    /// The power that leaves it (mean channel).
+    power: f64,
+    /// Where it leaves from: the elements' centres weighted by their
+    /// unshot power (the node's centroid when it has none).
+    centre: glam::Vec3,
 }
 
-/// Where a region's unshot light leaves from: its elements' centres
-/// weighted by their unshot power (the centroid when it has none), and the
-/// outline's radius around that point.
-fn light_centre(
-    tree: &ShooterTree,
-    mesh: &Mesh,
-    node: u32,
-    unshot: &[[f32; 4]],
-) -> (glam::Vec3, f32) {
+fn unshot_light(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]]) -> UnshotLight {
     let n = &tree.nodes[node as usize];
-    let (mut weighted, mut total) = (glam::DVec3::ZERO, 0.0f64);
+    let mut sum = [0.0f64; 3];
+    let mut weighted = glam::DVec3::ZERO;
     for &e in tree.elements(node) {
         let el = &mesh.elements[e as usize];
-        let u = unshot[e as usize];
-        let p = (u[0] + u[1] + u[2]) as f64 * el.area as f64;
-        weighted += el.centre.as_dvec3() * p;
-        total += p;
+        let (u, a) = (unshot[e as usize], el.area as f64);
+        for c in 0..3 {
+            sum[c] += u[c] as f64 * a;
+        }
+        weighted += el.centre.as_dvec3() * ((u[0] + u[1] + u[2]) as f64 * a);
     }
-    if total <= 0.0 {
-        return (n.centre, n.radius);
+    let area = n.area.max(f32::MIN_POSITIVE);
+    let total = sum[0] + sum[1] + sum[2];
+    UnshotLight {
+        mean: sum.map(|x| (x / area as f64) as f32),
+        power: total / 3.0,
+        centre: if total > 0.0 {
+            (weighted / total).as_vec3()
+        } else {
+            n.centre
+        },
     }
-    let centre = (weighted / total).as_vec3();
-    let radius = n
-        .polygon
-        .iter()
-        .map(|v| v.distance(centre))
-        .fold(0.0, f32::max);
-    (centre, radius)
 }
 
 /// How a region's unshot light spreads over its children: each child's

@@ -33,7 +33,7 @@ use rayon::prelude::*;
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
 use super::hierarchy::ShooterTree;
-use crate::formfactor::analytic::point_to_polygon;
+use crate::formfactor::analytic::{clip_to_front, point_to_polygon};
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
 use crate::formfactor::sampling::{grid, Pcg32};
@@ -593,7 +593,14 @@ impl Receiver {
         // a source half behind it (the floor element under a box's
         // corner, seen from the box's foot) would otherwise put most of
         // them where the kernel is zero, and a sliver in front none.
-        let clipped = front_part(&src.polygon, self.p, self.n).map(|part| fan_of(&part));
+        let (p, n) = (self.p.as_dvec3(), self.n.as_dvec3());
+        let clipped = src.polygon.iter().any(|&v| (v - p).dot(n) < 0.0).then(|| {
+            let part: Vec<Vec3> = clip_to_front(p, n, &src.polygon)
+                .iter()
+                .map(|v| v.as_vec3())
+                .collect();
+            fan_of(&part)
+        });
         let fan = match &clipped {
             Some((fan, _)) if fan.is_empty() => return (0.0, 0.0),
             Some((fan, cdf)) => (fan.as_slice(), cdf.as_slice()),
@@ -654,28 +661,6 @@ fn fan_point((fan, cdf): (&[(Vec3, Vec3, Vec3)], &[f32]), u: f32, w: f32) -> Vec
     let (a, b, e) = fan[k];
     let s = uu.sqrt();
     a + s * ((b - a) + w * (e - b))
-}
-
-/// The part of the convex polygon `poly` in front of the plane through `p`
-/// with normal `n`; `None` when all of it is.
-fn front_part(poly: &[DVec3], p: Vec3, n: Vec3) -> Option<Vec<Vec3>> {
-    let side = |v: Vec3| (v - p).dot(n);
-    let corners: Vec<Vec3> = poly.iter().map(|v| v.as_vec3()).collect();
-    if corners.iter().all(|&v| side(v) > 0.0) {
-        return None;
-    }
-    let mut out = Vec::with_capacity(corners.len() + 1);
-    for k in 0..corners.len() {
-        let (a, b) = (corners[k], corners[(k + 1) % corners.len()]);
-        let (da, db) = (side(a), side(b));
-        if da > 0.0 {
-            out.push(a);
-        }
-        if (da > 0.0) != (db > 0.0) {
-            out.push(a + (b - a) * (da / (da - db)));
-        }
-    }
-    Some(out)
 }
 
 mod clusters;
