@@ -1,7 +1,8 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 // Sums delta form factors per element: each item-buffer pixel adds its
-// precomputed fixed-point weight to the element it shows. Integer atomics
+// precomputed fixed-point weight (the table of this shot's resolution) to
+// the element it shows. Integer atomics
 // make the sum exact and independent of execution order.
 //
 // Neighbouring pixels mostly show the same element, so each invocation walks
@@ -26,7 +27,9 @@ void flush(uint element, uint sum) {
 }
 
 void main() {
-    ivec2 size = imageSize(item_buffer);
+    // This shot's hemicube fills the atlas's top-left res x 3 res pixels.
+    int res = int(shot.hemicube_res);
+    ivec2 size = ivec2(res, 3 * res);
     int runs_per_row = (size.x + RUN - 1) / RUN;
     int run = int(gl_GlobalInvocationID.x);
     int y = run / runs_per_row;
@@ -44,7 +47,7 @@ void main() {
             current = element;
             sum = 0u;
         }
-        sum += weight[y * size.x + x];
+        sum += weight[shot.weight_offset + uint(y * size.x + x)];
     }
     flush(current, sum);
 }

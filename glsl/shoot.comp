@@ -2,9 +2,10 @@
 #extension GL_GOOGLE_include_directive : require
 // Progressive refinement shot (thesis fig. 8, lines 8-12), one invocation per
 // receiver j: dB_j = rho_j * F_ij * A_i / A_j * dB_i, added to the receiver's
-// radiosity and unshot radiosity. The shooter's unshot radiosity is zeroed
-// (every element of a shooting region: ranks shooter_ranks.x .. y), or in a
-// batch reduced by what it shoots.
+// radiosity and unshot radiosity. dB_i is the shooter's unshot radiosity as
+// shot_light.comp read it just before (its mean over the shooter's
+// elements); every element of the shooter (ranks shooter_ranks.x .. y) is
+// zeroed, so the power shot is exactly the power removed.
 
 #include "shot_params.glsl"
 
@@ -17,8 +18,8 @@ layout(set = 0, binding = 5, std430) buffer Radiosity { vec4 radiosity[]; };
 layout(set = 0, binding = 6, std430) buffer Unshot { vec4 unshot[]; };
 // Position of every element in the shooting hierarchy's order.
 layout(set = 0, binding = 8, std430) readonly buffer Ranks { uint rank[]; };
-// Unshot radiosity when the batch was picked (subtract_snapshot only).
-layout(set = 0, binding = 9, std430) readonly buffer Snapshot { vec4 snapshot[]; };
+// Per shooter of the batch: its mean unshot radiosity (shot_light.comp).
+layout(set = 0, binding = 9, std430) readonly buffer ShotLight { vec4 shot_light[]; };
 
 void main() {
     uint j = gl_GlobalInvocationID.x;
@@ -27,13 +28,7 @@ void main() {
     }
     uint r = rank[j];
     if (r >= shot.shooter_ranks.x && r < shot.shooter_ranks.y) {
-        // Alone in its submission, a shooter gives away all its unshot
-        // radiosity. One of a batch gives away what it held when the batch
-        // was picked (the snapshot), which is what its shot carries, and
-        // keeps what earlier shooters of the batch sent it since: the
-        // batch's shooters are disjoint, so each element loses its snapshot
-        // at most once and never goes below zero.
-        unshot[j] = shot.subtract_snapshot != 0u ? unshot[j] - snapshot[j] : vec4(0.0);
+        unshot[j] = vec4(0.0);
         return;
     }
     uint fixed_ff = ff[j];
@@ -49,7 +44,8 @@ void main() {
         form_factor *= corrected_sum > 0u ? float(hemicube_sum) / float(corrected_sum) : 0.0;
     }
     vec4 ra = reflectance_area[j];
-    vec3 delta = ra.rgb * shot.shooter_unshot.rgb * (form_factor * shot.shooter_unshot.w / ra.w);
+    vec3 light = shot_light[shot.slot].rgb;
+    vec3 delta = ra.rgb * light * (form_factor * shot.shooter_area / ra.w);
     radiosity[j].rgb += delta;
     unshot[j].rgb += delta;
 }

@@ -4,17 +4,23 @@
 layout(set = 0, binding = 0, std140) uniform ShotParams {
     // World -> clip for the five hemicube faces: top, then the four sides.
     mat4 face_view_proj[5];
-    // rgb: the shooter's unshot radiosity; w: the area of its elements.
-    vec4 shooter_unshot;
+    // The area of the shooter's elements.
+    float shooter_area;
+    // The shooter's place in its batch: where shot_light.comp leaves its
+    // unshot light for shoot.comp.
+    uint slot;
+    // This shot's hemicube: top-face resolution (the item buffer uses the
+    // atlas's top-left res x 3 res pixels) and the first of its per-pixel
+    // weights in the weight table (one table per resolution).
+    uint hemicube_res;
+    uint weight_offset;
     uint element_count;
     // Form factors: 0 = the hemicube's own (element shots), 1 = exact x
     // visibility from a region's outline (glsl/ff_node.comp).
     uint mode;
-    // Item-buffer pixels of the hemicube (its resolution, for ff_node).
+    // Item-buffer pixels of this shot's hemicube (for ff_node).
     uint hemicube_pixels;
-    // 1: the shooter shares its submission with others and gives away the
-    // unshot radiosity of the batch's snapshot (shoot.comp); 0: all of it.
-    uint subtract_snapshot;
+    uint _pad0;
     // The shooter's elements: ranks [x, y) (the shooting hierarchy's order).
     uvec4 shooter_ranks;
     // The shooting region (mode 1): outline corners (xyz), counter-clockwise

@@ -549,6 +549,7 @@ fn settings(method: FormFactorMethod, hemicube_res: u32) -> SolveSettings {
         gather_passes: 0,
         // The bench compares form-factor methods shot for shot.
         shooting: Shooting::Element,
+        in_flight: None,
     }
 }
 

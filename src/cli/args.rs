@@ -184,6 +184,14 @@ pub(crate) struct RenderArgs {
     /// than this many times brighter or dimmer (unshot) than its mean.
     #[arg(long, default_value_t = HierarchyRule::default().uniformity, value_name = "RATIO")]
     pub(crate) uniformity: f64,
+    /// Shot batches in flight at once: 2 lets the CPU pick and record the
+    /// next batch while the GPU shoots the last one (each shooter's light
+    /// is read on the GPU as it shoots, so nothing is lost); 1 waits for
+    /// every batch before picking the next. Default: 2 on a GPU, 1 on a CPU
+    /// device (lavapipe), whose passes run on the same cores as the CPU's
+    /// own work.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=2))]
+    pub(crate) in_flight: Option<u8>,
     /// Camera position (with --look-at; default: the scene's camera or an automatic one).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
     pub(crate) eye: Option<Vec3>,

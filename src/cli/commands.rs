@@ -79,6 +79,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         // Set by the job from its final gather.
         gather_passes: 0,
         shooting: args.shooting(),
+        in_flight: args.in_flight.map(usize::from),
     };
     let fraction = |f: f64| f > 0.0 && f < 1.0;
     if !fraction(job.solve.converge) || !fraction(args.stop_error) {

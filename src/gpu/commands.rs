@@ -51,7 +51,8 @@ impl Commands {
 
     /// Starts recording (discarding what was recorded before).
     pub fn begin(&self) -> Result<vk::CommandBuffer> {
-        // SAFETY: the buffer is not pending: every submit waits on the fence.
+        // SAFETY: the buffer is not pending: callers wait on the fence after
+        // every submit before recording again.
         unsafe {
             self.device
                 .raw
@@ -75,15 +76,32 @@ impl Commands {
     /// writes made before this call are visible to the commands (submission
     /// is a host-write ordering point).
     pub fn submit_and_wait(&self) -> Result<()> {
+        self.submit()?;
+        self.wait()
+    }
+
+    /// Submits the recorded commands without waiting: the host may prepare
+    /// other work meanwhile, but must [`Self::wait`] before it records,
+    /// submits or reads what these commands write.
+    pub fn submit(&self) -> Result<()> {
         let cmds = [self.cmd];
         let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-        // SAFETY: the buffer is fully recorded and not pending; the fence is
-        // unsignalled (reset after every wait).
+        // SAFETY: the buffer is fully recorded and not pending (callers wait
+        // before submitting again); the fence is unsignalled (reset after
+        // every wait).
         unsafe {
             self.device
                 .raw
                 .queue_submit(self.device.queue, &submit, self.fence)
-                .map_err(Error::vk("vkQueueSubmit"))?;
+                .map_err(Error::vk("vkQueueSubmit"))
+        }
+    }
+
+    /// Waits for the last submission to finish.
+    pub fn wait(&self) -> Result<()> {
+        // SAFETY: the fence belongs to this device and was submitted with
+        // the buffer.
+        unsafe {
             self.device
                 .raw
                 .wait_for_fences(&[self.fence], true, u64::MAX)

@@ -349,6 +349,12 @@ pub struct Device {
 }
 
 impl Device {
+    /// Whether the device is the CPU itself (lavapipe): its passes run on
+    /// the cores the CPU's own work needs.
+    pub fn is_cpu(&self) -> bool {
+        self.info.kind == kind_name(vk::PhysicalDeviceType::CPU)
+    }
+
     /// Creates the instance and the device `options` ask for.
     pub fn new(options: &DeviceOptions) -> Result<Arc<Self>> {
         let instance = Instance::new(options.validate)?;

@@ -9,6 +9,7 @@
 //! at the pick (what earlier shooters of the batch send it stays unshot for
 //! a later batch); one readback re-keys the heap. See [`solve_batched`].
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -17,7 +18,7 @@ use super::hierarchy::{HierarchyRule, ShooterTree, MAX_NODE_VERTICES};
 use super::shoot::{FormFactorMethod, GpuMesh, Shots};
 use super::solution::Solution;
 use crate::error::{Error, Result};
-use crate::gpu::shooting::MAX_BATCH;
+use crate::gpu::shooting::{FRAMES, MAX_BATCH};
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -43,6 +44,12 @@ pub struct SolveSettings {
     pub gather_passes: usize,
     /// Who shoots: regions of the shooting hierarchy, or single elements.
     pub shooting: Shooting,
+    /// Batches in flight at once (1 or 2; the CPU methods take 1). With 2,
+    /// the CPU picks and records the next batch while the GPU shoots the
+    /// last one, from the unshot radiosity read back before it. `None`: 2
+    /// on a GPU, 1 on a CPU device (lavapipe), where the passes share the
+    /// CPU's cores and the overlap buys nothing but older picks.
+    pub in_flight: Option<usize>,
 }
 
 /// Who shoots in each shot.
@@ -68,12 +75,13 @@ impl Default for SolveSettings {
             max_shots: 100_000,
             gather_passes: 0,
             shooting: Shooting::Hierarchical(HierarchyRule::default()),
+            in_flight: None,
         }
     }
 }
 
-/// The node that shoots for heap top `top` in a batch that already holds
-/// `taken`: `grown`, the hierarchy's pick, unless it contains one of them
+/// The node that shoots for heap top `top` when `taken` are picked
+/// already (in its batch or in one in flight): `grown`, the hierarchy's pick, unless it contains one of them
 /// (nodes are nested or disjoint, and `top` lies in none of them); then the
 /// highest node on the way from `top`'s leaf up to `grown` that contains
 /// none (every such node of at most [`MAX_NODE_VERTICES`] corners passed
@@ -234,74 +242,100 @@ pub fn solve_batched(
     let mut interrupted = false;
 
     // Elements whose heap keys are parked at zero while their batch is
-    // picked (so the next pick is another shooter).
-    let mut parked: Vec<u32> = Vec::new();
-    let mut nodes: Vec<u32> = Vec::with_capacity(batch);
-    while shots < settings.max_shots {
-        if done(unshot_power, share) {
-            converged = true;
-            break;
-        }
-        nodes.clear();
-        let room = batch.min(settings.max_shots - shots);
-        while nodes.len() < room {
-            let Some((shooter, key)) = heap.peek() else {
-                break;
-            };
-            if key <= 0.0 {
-                break;
-            }
-            let tree = shots_engine.tree();
-            let node = match (settings.shooting, settings.method) {
-                (Shooting::Hierarchical(rule), FormFactorMethod::Hemicube) => {
-                    let emitter = scene
-                        .patch_material(mesh.elements[shooter].patch)
-                        .is_emitter();
-                    let grown = tree.shooter(
-                        shooter as u32,
-                        emitter,
-                        &rule,
-                        |e| power(unshot[e as usize], areas[e as usize]),
-                        unshot_power,
-                    );
-                    clear_of(tree, shooter, grown, &nodes)
+    // picked and in flight (so that no later pick takes them again).
+    let mut parked = vec![false; mesh.elements.len()];
+    // Batches in flight, oldest first: their nodes.
+    let mut in_flight: VecDeque<Vec<u32>> = VecDeque::new();
+    let depth = settings
+        .in_flight
+        .unwrap_or(if device.is_cpu() { 1 } else { FRAMES })
+        .clamp(1, shots_engine.depth());
+    let mut submitted = 0;
+    let mut stop = false;
+    loop {
+        // Keep the pipeline full: pick and submit while there is room.
+        // A pick made while a batch is in flight sees the unshot radiosity
+        // from before it; the GPU reads each shooter's light when it shoots,
+        // so that costs no energy, only a slightly older order.
+        while !stop && in_flight.len() < depth && submitted < settings.max_shots {
+            let room = batch.min(settings.max_shots - submitted);
+            let mut nodes: Vec<u32> = Vec::with_capacity(room);
+            // The nodes a pick must not overlap: this batch's and those in
+            // flight.
+            let mut taken: Vec<u32> = in_flight.iter().flatten().copied().collect();
+            while nodes.len() < room {
+                let Some((shooter, key)) = heap.peek() else {
+                    break;
+                };
+                if key <= 0.0 {
+                    break;
                 }
-                _ => tree.leaf[shooter],
-            };
-            for &e in tree.elements(node) {
-                heap.set_key(e as usize, 0.0);
-                parked.push(e);
+                let tree = shots_engine.tree();
+                let node = match (settings.shooting, settings.method) {
+                    (Shooting::Hierarchical(rule), FormFactorMethod::Hemicube) => {
+                        let emitter = scene
+                            .patch_material(mesh.elements[shooter].patch)
+                            .is_emitter();
+                        let grown = tree.shooter(
+                            shooter as u32,
+                            emitter,
+                            &rule,
+                            |e| power(unshot[e as usize], areas[e as usize]),
+                            unshot_power,
+                        );
+                        clear_of(tree, shooter, grown, &taken)
+                    }
+                    _ => tree.leaf[shooter],
+                };
+                for &e in tree.elements(node) {
+                    heap.set_key(e as usize, 0.0);
+                    parked[e as usize] = true;
+                }
+                nodes.push(node);
+                taken.push(node);
             }
-            nodes.push(node);
+            if nodes.is_empty() {
+                // Every element with unshot power is in flight; or, when
+                // nothing is, none has any left.
+                if in_flight.is_empty() {
+                    converged = true;
+                    stop = true;
+                }
+                break;
+            }
+            shots_engine.submit(&nodes, &unshot, submitted as u64, hierarchical)?;
+            submitted += nodes.len();
+            in_flight.push_back(nodes);
         }
-        if nodes.is_empty() {
-            converged = true;
+        let Some(nodes) = in_flight.pop_front() else {
             break;
-        }
+        };
         let before = unshot_power;
-        let (after, shot_power) =
-            shots_engine.shoot(&nodes, &unshot, shots as u64, hierarchical)?;
-        // Re-key only what changed (and what was parked); sum the unshot
-        // power afresh so rounding cannot drift.
+        let (after, shot_power) = shots_engine.wait()?;
+        let tree = shots_engine.tree();
+        for &node in &nodes {
+            for &e in tree.elements(node) {
+                parked[e as usize] = false;
+            }
+        }
+        // Re-key what changed and what was parked (elements of a batch
+        // still in flight stay parked); sum the unshot power afresh so
+        // rounding cannot drift.
         unshot_power = 0.0;
         for (j, (new, old)) in after.iter().zip(unshot.iter_mut()).enumerate() {
+            let key = power(*new, areas[j]);
             if new != old {
                 *old = *new;
-                let key = power(*new, areas[j]) as f32;
                 if !key.is_finite() {
                     return Err(Error::Invalid(format!(
                         "element {j}'s unshot power became {key} after {shots} shots (numeric overflow)"
                     )));
                 }
-                heap.set_key(j, key);
             }
-            unshot_power += power(*new, areas[j]);
-        }
-        for e in parked.drain(..) {
-            heap.set_key(
-                e as usize,
-                power(unshot[e as usize], areas[e as usize]) as f32,
-            );
+            if !parked[j] {
+                heap.set_key(j, key as f32);
+            }
+            unshot_power += key;
         }
         shots += nodes.len();
         reflected_power += (unshot_power - before + shot_power).max(0.0);
@@ -314,13 +348,18 @@ pub fn solve_batched(
         );
         let residual = unshot_power / emitted_power;
         residual_history.push(residual);
+        if stop {
+            continue;
+        }
         if !on_progress(&Progress {
             shots,
             residual,
             unshot_share: share,
         }) {
             interrupted = true;
-            break;
+            stop = true;
+        } else if done(unshot_power, share) {
+            stop = true;
         }
     }
     if done(unshot_power, share) {

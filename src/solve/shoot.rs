@@ -3,6 +3,7 @@
 //! the compute-shader update of every receiver's radiosity and unshot
 //! radiosity. [`Shots`] hides which method made the form factors.
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -13,7 +14,7 @@ use crate::formfactor::hemicube::Hemicube;
 use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::item::ItemVertex;
 use crate::gpu::shooting::{
-    fixed_point_weights, ElementGeometry, Region, Shooter, ShootingEngine, ShootingInputs,
+    BatchResult, ElementGeometry, Region, Shooter, ShootingEngine, ShootingInputs, FRAMES,
 };
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
@@ -97,18 +98,15 @@ impl GpuMesh {
 
     /// Builds the GPU engine over this mesh.
     pub fn engine(&self, device: &Arc<Device>, hemicube: Hemicube) -> Result<ShootingEngine> {
-        let weights = fixed_point_weights(&hemicube.delta_form_factors());
         ShootingEngine::new(
             device,
             &ShootingInputs {
                 triangles: &self.triangles,
                 reflectance_area: &self.reflectance_area,
                 initial_radiosity: &self.emission,
-                weights: &weights,
                 geometry: &self.geometry,
                 ranks: &self.tree.rank,
-                atlas: hemicube.atlas_size(),
-                face_viewports: std::array::from_fn(|f| hemicube.face_viewport(f)),
+                hemicube,
             },
         )
     }
@@ -204,7 +202,17 @@ pub struct Shots<'a> {
     vertex_patch: Vec<u32>,
     /// Radiosity at every vertex (CPU methods only: Wallace 1989).
     vertex_radiosity: Option<Vec<[f32; 3]>>,
+    /// Batches submitted and not yet waited for, oldest first.
+    pending: VecDeque<Pending>,
     cpu_times: StageTimes,
+}
+
+/// A batch [`Shots::wait`] has still to return.
+enum Pending {
+    /// On the GPU: the nodes that shoot in it.
+    Gpu(Vec<u32>),
+    /// Shot already (a CPU method's shot is synchronous): its result.
+    Done(Vec<[f32; 4]>, f64),
 }
 
 impl<'a> Shots<'a> {
@@ -241,6 +249,7 @@ impl<'a> Shots<'a> {
             tree: gpu_mesh.tree,
             vertex_patch,
             vertex_radiosity,
+            pending: VecDeque::new(),
             cpu_times: StageTimes::default(),
         })
     }
@@ -250,31 +259,51 @@ impl<'a> Shots<'a> {
         &self.tree
     }
 
-    /// Shoots nodes `nodes` of the shooting hierarchy, in order and in one
-    /// GPU submission (a batch; see `gpu/shooting/batch.rs`): each node's
-    /// mean unshot radiosity over its elements (from `unshot`, every
-    /// element's value when the batch was picked) leaves its whole area.
-    /// The nodes must be disjoint; the CPU methods take one leaf at a time.
-    /// `region`: form factors are exact x visibility from the node's
-    /// outline (hierarchical shooting); else the hemicube's own at its
-    /// centre (element shooting, nodes are leaves). `salt` varies the CPU
-    /// methods' ray pattern per shot. Returns every element's unshot
-    /// radiosity after the batch (rgba, a unused) and the power shot (mean
-    /// channel).
-    pub fn shoot(
+    /// How many batches may be in flight at once: with the GPU hemicube,
+    /// the CPU prepares the next batch while the GPU shoots the last one;
+    /// a CPU method's shot is done when it is submitted.
+    pub fn depth(&self) -> usize {
+        if self.cpu.is_some() {
+            1
+        } else {
+            FRAMES
+        }
+    }
+
+    /// Submits nodes `nodes` of the shooting hierarchy, to be shot in order
+    /// in one GPU submission (a batch; see `gpu/shooting/batch.rs`); up to
+    /// [`Self::depth`] batches may be pending, and [`Self::wait`] returns
+    /// their results in order. Each node shoots the mean unshot radiosity
+    /// over its elements when it shoots (read on the GPU) from its whole
+    /// area; `unshot` (every element's value as last read back) places its
+    /// hemicube and spreads its light over its parts. The nodes must be
+    /// disjoint; the CPU methods take one leaf at a time. `region`: form
+    /// factors are exact x visibility from the node's outline (hierarchical
+    /// shooting); else the hemicube's own at its centre (element shooting,
+    /// nodes are leaves). `salt` varies the CPU methods' ray pattern per
+    /// shot.
+    pub fn submit(
         &mut self,
         nodes: &[u32],
         unshot: &[[f32; 4]],
         salt: u64,
         region: bool,
-    ) -> Result<(Vec<[f32; 4]>, f64)> {
+    ) -> Result<()> {
+        if self.pending.len() >= self.depth() {
+            return Err(Error::Invalid(format!(
+                "{} shot batches are pending already: wait for one first",
+                self.pending.len()
+            )));
+        }
         if self.cpu.is_some() {
             let &[node] = nodes else {
                 return Err(Error::Invalid(
                     "ray-traced and analytic form factors shoot one element per submission".into(),
                 ));
             };
-            return self.shoot_cpu(node, unshot, salt);
+            let (after, power) = self.shoot_cpu(node, unshot, salt)?;
+            self.pending.push_back(Pending::Done(after, power));
+            return Ok(());
         }
         let (tree, mesh) = (&self.tree, self.mesh);
         // Per node: the parts' outlines and weights, which its Region borrows.
@@ -288,18 +317,16 @@ impl<'a> Shots<'a> {
                 }
             })
             .collect();
-        let mut shot_power = 0.0;
         let mut shooters = Vec::with_capacity(nodes.len());
         for (&node, parts) in nodes.iter().zip(&parts) {
             let n = &tree.nodes[node as usize];
-            let light = unshot_light(tree, mesh, node, unshot);
-            shot_power += light.power;
             let area = n.area.max(f32::MIN_POSITIVE);
             // A region's hemicube stands where its light leaves from; the
             // outline's radius is taken around that point.
             let (centre, radius) = if region {
-                let radius = n.polygon.iter().map(|v| v.distance(light.centre));
-                (light.centre, radius.fold(0.0, f32::max))
+                let centre = unshot_light(tree, mesh, node, unshot).centre;
+                let radius = n.polygon.iter().map(|v| v.distance(centre));
+                (centre, radius.fold(0.0, f32::max))
             } else {
                 (n.centre, n.radius)
             };
@@ -307,9 +334,9 @@ impl<'a> Shots<'a> {
                 faces: self
                     .hemicube
                     .face_view_proj(centre, n.normal, near_plane(area)),
-                unshot: light.mean,
                 area: n.area,
                 ranks: (n.range.start, n.range.end),
+                resolution: self.hemicube.res,
                 region: region.then_some(Region {
                     outline: &n.polygon,
                     centre,
@@ -320,8 +347,36 @@ impl<'a> Shots<'a> {
                 }),
             });
         }
-        let after = self.engine.shoot(&shooters)?;
-        Ok((after, shot_power))
+        self.engine.submit(&shooters)?;
+        self.pending.push_back(Pending::Gpu(nodes.to_vec()));
+        Ok(())
+    }
+
+    /// Waits for the oldest pending batch: every element's unshot
+    /// radiosity after it (rgba, a unused) and the power it shot (mean
+    /// channel).
+    pub fn wait(&mut self) -> Result<(Vec<[f32; 4]>, f64)> {
+        match self.pending.pop_front() {
+            None => Err(Error::Invalid("no shot batch is pending".into())),
+            Some(Pending::Done(after, power)) => Ok((after, power)),
+            Some(Pending::Gpu(nodes)) => {
+                let BatchResult { unshot, shot_light } = self.engine.wait()?;
+                Ok((unshot, self.shot_power(&nodes, &shot_light)))
+            }
+        }
+    }
+
+    /// The power (mean channel) the nodes shot, from the mean unshot
+    /// radiosity each carried.
+    fn shot_power(&self, nodes: &[u32], light: &[[f32; 3]]) -> f64 {
+        nodes
+            .iter()
+            .zip(light)
+            .map(|(&node, l)| {
+                let area = self.tree.nodes[node as usize].area as f64;
+                (l[0] as f64 + l[1] as f64 + l[2] as f64) / 3.0 * area
+            })
+            .sum()
     }
 
     /// One shot of a leaf with form factors from the CPU method.
@@ -331,11 +386,9 @@ impl<'a> Shots<'a> {
         unshot: &[[f32; 4]],
         salt: u64,
     ) -> Result<(Vec<[f32; 4]>, f64)> {
-        let UnshotLight {
-            mean,
-            power: shot_power,
-            ..
-        } = unshot_light(&self.tree, self.mesh, node, unshot);
+        // One batch at a time: `unshot` is current, so the CPU's mean is
+        // the light the GPU reads.
+        let mean = unshot_light(&self.tree, self.mesh, node, unshot).mean;
         let n = &self.tree.nodes[node as usize];
         let ranks = (n.range.start, n.range.end);
         let area = n.area;
@@ -362,17 +415,18 @@ impl<'a> Shots<'a> {
             }
         }
         self.cpu_times.add(cpu.stage_name(), t.elapsed());
-        let after = self.engine.shoot_with(
+        let result = self.engine.shoot_with(
             &ff,
             &Shooter {
                 faces: [glam::Mat4::IDENTITY; 5],
-                unshot: mean,
                 area,
                 ranks,
+                resolution: self.hemicube.res,
                 region: None,
             },
         )?;
-        Ok((after, shot_power))
+        let power = self.shot_power(&[node], &result.shot_light);
+        Ok((result.unshot, power))
     }
 
     /// Every element's radiosity, the vertex radiosity of the CPU methods,
@@ -398,8 +452,6 @@ impl<'a> Shots<'a> {
 struct UnshotLight {
     /// Mean unshot radiosity over its elements (rgb).
     mean: [f32; 3],
-    /// The power that leaves it (mean channel).
-    power: f64,
     /// Where it leaves from: the elements' centres weighted by their
     /// unshot power (the node's centroid when it has none).
     centre: glam::Vec3,
@@ -421,7 +473,6 @@ fn unshot_light(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]])
     let total = sum[0] + sum[1] + sum[2];
     UnshotLight {
         mean: sum.map(|x| (x / area as f64) as f32),
-        power: total / 3.0,
         centre: if total > 0.0 {
             (weighted / total).as_vec3()
         } else {

@@ -1,12 +1,14 @@
 //! Batched shooting (several shooters per GPU submission, picked at once
 //! from the heap; `gpu/shooting/batch.rs`) against one shooter per
-//! submission: the same scene and mesh agree element for element within a
-//! stated tolerance, and a closed room still balances its energy exactly.
+//! submission, and two batches in flight (the next picked while the last
+//! runs; `gpu/shooting/frame.rs`) against one: the same scene and mesh
+//! agree element for element within a stated tolerance, and a closed room
+//! still balances its energy exactly.
 
 use crate::common;
 
 use common::*;
-use vkrad::gpu::shooting::MAX_BATCH;
+use vkrad::gpu::shooting::{FRAMES, MAX_BATCH};
 use vkrad::solve::{solve_batched, Shooting, Solution, SolveSettings};
 
 /// Area-weighted RMS difference over the mean (non-emitting elements), and
@@ -33,7 +35,9 @@ fn difference(
     ((sq / area).sqrt() / (sum_r / area), sum_o / sum_r - 1.0)
 }
 
-fn cornell(shooting: Shooting, edges_per_extent: f32) -> (f64, f64) {
+/// One shooter per submission, waited for before the next pick, against
+/// [`MAX_BATCH`] per submission with `in_flight` batches in flight.
+fn cornell(shooting: Shooting, edges_per_extent: f32, in_flight: usize) -> (f64, f64) {
     let device = device();
     let scene = vkrad::scene::load_builtin("cornell").unwrap().unwrap();
     let mesh = vkrad::mesh::uniform(&scene, scene.extent() / edges_per_extent);
@@ -43,13 +47,21 @@ fn cornell(shooting: Shooting, edges_per_extent: f32) -> (f64, f64) {
         shooting,
         ..Default::default()
     };
-    let one = solve_batched(&device, &scene, &mesh, &settings, 1, |_| true).unwrap();
-    let batched = solve_batched(&device, &scene, &mesh, &settings, MAX_BATCH, |_| true).unwrap();
+    let single = SolveSettings {
+        in_flight: Some(1),
+        ..settings
+    };
+    let one = solve_batched(&device, &scene, &mesh, &single, 1, |_| true).unwrap();
+    let batched = SolveSettings {
+        in_flight: Some(in_flight),
+        ..settings
+    };
+    let batched = solve_batched(&device, &scene, &mesh, &batched, MAX_BATCH, |_| true).unwrap();
     assert_validation_clean(&device);
     assert!(one.converged && batched.converged);
     let (rel_rms, bias) = difference(&scene, &mesh, &one, &batched);
     eprintln!(
-        "cornell, {} elements, {shooting:?}: {MAX_BATCH} per submission vs 1: rel. RMS {:.3}%, bias {:+.3}%; shots {} vs {}, readbacks {} vs {}",
+        "cornell, {} elements, {shooting:?}: {MAX_BATCH} per submission, {in_flight} in flight vs 1: rel. RMS {:.3}%, bias {:+.3}%; shots {} vs {}, readbacks {} vs {}",
         mesh.elements.len(),
         100.0 * rel_rms,
         100.0 * bias,
@@ -72,12 +84,17 @@ fn cornell(shooting: Shooting, edges_per_extent: f32) -> (f64, f64) {
 
 #[test]
 fn batched_hierarchical_solve_agrees_with_one_shooter_per_submission() {
-    cornell(SolveSettings::default().shooting, 16.0);
+    cornell(SolveSettings::default().shooting, 16.0, 1);
+}
+
+#[test]
+fn two_batches_in_flight_agree_with_one_shooter_per_submission() {
+    cornell(SolveSettings::default().shooting, 16.0, FRAMES);
 }
 
 #[test]
 fn batched_element_solve_agrees_with_one_shooter_per_submission() {
-    cornell(Shooting::Element, 8.0);
+    cornell(Shooting::Element, 8.0, 1);
 }
 
 /// A closed room of uniform reflectance, solved in batches: everything shot
@@ -86,7 +103,13 @@ fn batched_element_solve_agrees_with_one_shooter_per_submission() {
 /// E_avg = Phi / (A (1 - rho)).
 #[test]
 fn closed_room_balances_with_batching() {
-    for shooting in [Shooting::Element, SolveSettings::default().shooting] {
+    let cases = [
+        (Shooting::Element, 1),
+        (SolveSettings::default().shooting, 1),
+        (Shooting::Element, FRAMES),
+        (SolveSettings::default().shooting, FRAMES),
+    ];
+    for (shooting, in_flight) in cases {
         let device = device();
         let rho = 0.8;
         let s = scene(
@@ -99,6 +122,7 @@ fn closed_room_balances_with_batching() {
             converge: 1e-5,
             max_shots: 20_000,
             shooting,
+            in_flight: Some(in_flight),
             ..Default::default()
         };
         let sol = solve_batched(&device, &s, &mesh, &settings, MAX_BATCH, |_| true).unwrap();
@@ -119,7 +143,7 @@ fn closed_room_balances_with_batching() {
         let balance = (mean - expected).abs() / expected;
         let conservation = (shot - received).abs() / received;
         eprintln!(
-            "closed room rho {rho}, {shooting:?}, {MAX_BATCH} per submission: mean irradiance {mean:.5} expected {expected:.5} ({:.3}%), shot {shot:.5} received {received:.5} ({:.4}%), {} shots in {} batches",
+            "closed room rho {rho}, {shooting:?}, {MAX_BATCH} per submission, {in_flight} in flight: mean irradiance {mean:.5} expected {expected:.5} ({:.3}%), shot {shot:.5} received {received:.5} ({:.4}%), {} shots in {} batches",
             100.0 * balance,
             100.0 * conservation,
             sol.shots,
@@ -152,15 +176,79 @@ fn overlapping_or_oversized_batches_are_refused() {
     let mut engine = gpu.engine(&device, hemicube).unwrap();
     let shooter = |ranks| vkrad::gpu::shooting::Shooter {
         faces: [glam::Mat4::IDENTITY; 5],
-        unshot: [1.0; 3],
         area: 1.0,
         ranks,
+        resolution: 32,
         region: None,
     };
     assert!(engine.shoot(&[shooter((0, 4)), shooter((3, 5))]).is_err());
     assert!(engine.shoot(&vec![shooter((0, 1)); MAX_BATCH + 1]).is_err());
     assert!(engine.shoot(&[]).is_err());
     assert!(engine.shoot(&[shooter((0, 4)), shooter((4, 5))]).is_ok());
+    // A resolution the engine has no weight table for.
+    let odd = vkrad::gpu::shooting::Shooter {
+        resolution: 48,
+        ..shooter((0, 1))
+    };
+    assert!(engine.shoot(&[odd]).is_err());
+    assert_validation_clean(&device);
+}
+
+/// Up to FRAMES batches may be in flight, and they come back in order; the
+/// one-off submissions (a synchronous batch, a form-factor row, the
+/// radiosity) refuse to run while any is; an engine dropped with batches
+/// in flight waits for them (validation stays clean).
+#[test]
+fn batches_in_flight_come_back_in_order() {
+    let device = device();
+    let s = scene(
+        closed_cube(2.0, 1, 0),
+        vec![material(0.5, 0.0), material(0.5, 1.0)],
+    );
+    let mesh = vkrad::mesh::uniform(&s, 1.0);
+    let gpu = vkrad::solve::GpuMesh::new(&s, &mesh);
+    let hemicube = vkrad::formfactor::hemicube::Hemicube::new(32).unwrap();
+    let mut engine = gpu.engine(&device, hemicube).unwrap();
+    // The emitter is patch 0: its elements come first in the tree's order
+    // only by chance, so shoot whole ranges of known elements instead.
+    let centre = |e: usize| mesh.elements[e].centre;
+    let shooter = |e: usize| vkrad::gpu::shooting::Shooter {
+        faces: hemicube.face_view_proj(centre(e), mesh.elements[e].normal, 1e-4),
+        area: mesh.elements[e].area,
+        ranks: (gpu.tree.rank[e], gpu.tree.rank[e] + 1),
+        resolution: 32,
+        region: None,
+    };
+    let emitters: Vec<usize> = (0..mesh.elements.len())
+        .filter(|&e| mesh.elements[e].patch == 0)
+        .collect();
+    assert!(emitters.len() >= 2);
+    engine.submit(&[shooter(emitters[0])]).unwrap();
+    engine.submit(&[shooter(emitters[1])]).unwrap();
+    assert_eq!(engine.in_flight(), FRAMES);
+    assert!(engine.submit(&[shooter(emitters[0])]).is_err());
+    assert!(engine.radiosity().is_err());
+    assert!(engine.shoot(&[shooter(emitters[0])]).is_err());
+    let first = engine.wait().unwrap();
+    let second = engine.wait().unwrap();
+    assert!(engine.wait().is_err());
+    // Each emitter element carried the emitted radiosity pi (the second
+    // also what the first sent it: nothing, they are coplanar), and is
+    // zeroed once shot.
+    let pi = std::f32::consts::PI;
+    for (result, e) in [(&first, emitters[0]), (&second, emitters[1])] {
+        assert_eq!(result.shot_light.len(), 1);
+        assert!((result.shot_light[0][0] - pi).abs() < 1e-4 * pi);
+        assert_eq!(result.unshot[e], [0.0; 4]);
+    }
+    // The first batch's readback predates the second shot.
+    assert!(first.unshot[emitters[1]][0] > 0.0);
+    assert_eq!(second.unshot[emitters[1]][0], 0.0);
+    // Dropped with a batch in flight: waits for it.
+    engine
+        .submit(&[shooter(emitters[2.min(emitters.len() - 1)])])
+        .unwrap();
+    drop(engine);
     assert_validation_clean(&device);
 }
 
@@ -232,7 +320,10 @@ fn timestamps_only_when_profiling() {
     assert_validation_clean(&plain);
     assert!(!sol.times.gpu);
     assert!(!sol.times.stages.contains_key("hemicube render"));
-    assert_eq!(sol.times.stages["shot batch (CPU timer)"].0, 3);
+    assert_eq!(
+        sol.times.stages["waiting for shot batches (CPU timer)"].0,
+        3
+    );
 
     let profiled = vkrad::gpu::Device::new(&vkrad::gpu::DeviceOptions {
         selector: std::env::var("VKRAD_TEST_DEVICE").ok(),

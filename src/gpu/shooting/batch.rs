@@ -1,7 +1,8 @@
 //! A batch of shots in one submission: up to [`MAX_BATCH`] shooters, each
 //! with its own parameter slot, recorded one after the other (item buffer,
 //! each face drawing only the triangles it may show -> reduction -> region
-//! correction -> shooting), and one unshot readback at the end.
+//! correction -> the shooter's light -> shooting), and one unshot readback
+//! at the end.
 //!
 //! The shooters share the item-buffer atlas and the form-factor buffer:
 //! each shooter's frame waits for the previous one's scan and shooting
@@ -9,41 +10,60 @@
 //! saves is the fixed cost per submission: the fence wait, the readback of
 //! every element's unshot radiosity and the CPU's re-keying after it.
 //!
-//! Semantics (Southwell with blocks): the CPU picks the batch's shooters at
-//! once, disjoint, from the unshot radiosity it read back last; each shoots
-//! the unshot light it held then. So that a later shooter keeps what an
-//! earlier one of the same batch sent it, the batch first copies the unshot
-//! radiosity aside (the snapshot) and every shooter subtracts its snapshot
-//! instead of zeroing itself (glsl/shoot.comp): the power shot is exactly
-//! the power removed, and nothing received within a batch is lost. A batch
-//! of one zeroes the shooter as before and takes no snapshot.
+//! Semantics: the CPU picks a batch's shooters at once, disjoint, from the
+//! unshot radiosity it read back last, which may predate the batch in
+//! flight before it (`frame.rs`). Each shooter's light is read on the GPU
+//! right before it shoots (glsl/shot_light.comp): it carries everything it
+//! holds then, what earlier shooters sent it included, and is zeroed. The
+//! power shot is exactly the power removed, however stale the pick, and
+//! the readback reports each shooter's light for the CPU's accounting.
+
+use std::time::Instant;
 
 use ash::vk;
 
-use super::{FaceDraws, Shooter, ShootingEngine, Submission};
+use super::frame::FRAMES;
+use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL};
 use crate::error::{Error, Result};
 use crate::gpu::commands::{barriers, buffer_barrier};
 
 /// The most shooters one submission takes (parameter slots).
 pub const MAX_BATCH: usize = 8;
 
-/// Timestamps a batch may write: its start, the snapshot, four passes per
-/// shooter and the readback.
-pub(super) const TIMESTAMPS: u32 = 3 + 4 * MAX_BATCH as u32;
+/// What a batch left: every element's unshot radiosity after it (rgba, a
+/// unused), and the mean unshot radiosity each shooter carried (rgb, in
+/// the batch's order).
+pub struct BatchResult {
+    pub unshot: Vec<[f32; 4]>,
+    pub shot_light: Vec<[f32; 3]>,
+}
 
 impl ShootingEngine {
-    /// Shoots `shooters` in order, in one submission, with form factors from
-    /// the GPU hemicube at each shooter's centre (corrected near a region
-    /// shooter). Their element ranges must be disjoint. Returns every
-    /// element's unshot radiosity after the last shot (rgba, a unused).
-    pub fn shoot(&mut self, shooters: &[Shooter]) -> Result<Vec<[f32; 4]>> {
+    /// Shoots `shooters` in order, in one submission, and waits for it:
+    /// [`Self::submit`] then [`Self::wait`]. No other batch may be in flight.
+    pub fn shoot(&mut self, shooters: &[Shooter]) -> Result<BatchResult> {
+        self.ensure_idle("a synchronous batch")?;
+        self.submit(shooters)?;
+        self.wait()
+    }
+
+    /// Records and submits `shooters`, to be shot in order with form
+    /// factors from each one's hemicube at its centre (corrected near a
+    /// region shooter), without waiting. Their element ranges must be
+    /// disjoint. At most [`FRAMES`] batches may be in flight; [`Self::wait`]
+    /// returns their results in order.
+    pub fn submit(&mut self, shooters: &[Shooter]) -> Result<()> {
         if shooters.is_empty() || shooters.len() > MAX_BATCH {
             return Err(Error::Invalid(format!(
                 "a batch takes 1 to {MAX_BATCH} shooters, got {}",
                 shooters.len()
             )));
         }
-        let batched = shooters.len() > 1;
+        if self.in_flight.len() >= FRAMES {
+            return Err(Error::Invalid(format!(
+                "{FRAMES} shot batches are in flight already: wait for one first"
+            )));
+        }
         let mut ranges: Vec<(u32, u32)> = shooters.iter().map(|s| s.ranks).collect();
         ranges.sort_unstable();
         if ranges.windows(2).any(|w| w[1].0 < w[0].1) {
@@ -51,37 +71,62 @@ impl ShootingEngine {
                 "the shooters of a batch overlap (an element would shoot twice)".into(),
             ));
         }
-        for (slot, shooter) in shooters.iter().enumerate() {
-            self.write_params(slot, shooter, batched)?;
+        // The frame after the newest one in flight is free: frames are used
+        // in turn and at most FRAMES are in flight.
+        let frame = self.in_flight.back().map_or(0, |&f| (f + 1) % FRAMES);
+        for (k, shooter) in shooters.iter().enumerate() {
+            self.write_params(frame * MAX_BATCH + k, k, shooter)?;
         }
-        let frames: Vec<[glam::Mat4; 5]> = shooters.iter().map(|s| s.faces).collect();
-        let draws = self.cull_faces(&frames)?;
-        let regions: Vec<bool> = shooters.iter().map(|s| s.region.is_some()).collect();
-        self.record_batch(&regions, &draws)?;
-        self.submit(Submission::Batch)?;
-        self.readback.read(self.element_count as usize)
+        let faces: Vec<[glam::Mat4; 5]> = shooters.iter().map(|s| s.faces).collect();
+        let draws = self.cull_faces(frame, &faces)?;
+        self.record_batch(frame, shooters, &draws)?;
+        self.frames[frame].cmds.submit()?;
+        self.frames[frame].pending = shooters.len();
+        self.in_flight.push_back(frame);
+        Ok(())
     }
 
-    /// Records the batch whose shooter `k` is a region shot when
-    /// `regions[k]` (its parameters are in slot `k`).
-    fn record_batch(&mut self, regions: &[bool], draws: &[FaceDraws]) -> Result<()> {
-        let cmd = self.batch_cmds.begin()?;
-        let mut profiler = self.batch_profiler.take();
+    /// Waits for the oldest batch in flight and returns what it left.
+    pub fn wait(&mut self) -> Result<BatchResult> {
+        let Some(frame) = self.in_flight.pop_front() else {
+            return Err(Error::Invalid("no shot batch is in flight".into()));
+        };
+        let start = Instant::now();
+        let f = &mut self.frames[frame];
+        f.cmds.wait()?;
+        let shooters = std::mem::take(&mut f.pending);
+        match &f.profiler {
+            Some(p) => p.collect(&mut self.times)?,
+            None => self.times.add(BATCH_WAIT_LABEL, start.elapsed()),
+        }
+        f.read_result(self.element_count as usize, shooters)
+    }
+
+    /// Records the batch of frame `frame` (its shooter `k`'s parameters are
+    /// in slot `frame * MAX_BATCH + k`).
+    fn record_batch(
+        &mut self,
+        frame: usize,
+        shooters: &[Shooter],
+        draws: &[FaceDraws],
+    ) -> Result<()> {
+        let hemicubes = shooters
+            .iter()
+            .map(|s| self.hemicube(s.resolution).map(|(h, _)| h))
+            .collect::<Result<Vec<_>>>()?;
+        let cmd = self.frames[frame].cmds.begin()?;
+        let mut profiler = self.frames[frame].profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
-        }
-        if regions.len() > 1 {
-            self.record_snapshot(cmd);
-            if let Some(p) = profiler.as_mut() {
-                p.stamp(cmd, "snapshot");
-            }
         }
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
-        for (slot, &region) in regions.iter().enumerate() {
-            self.record_hemicube(cmd, &mut profiler, slot, draws[slot]);
-            if region {
+        let indices = self.frames[frame].indices.as_ref().map(|b| b.raw());
+        for (k, (shooter, &hemicube)) in shooters.iter().zip(&hemicubes).enumerate() {
+            let slot = frame * MAX_BATCH + k;
+            self.record_hemicube(cmd, &mut profiler, slot, (draws[k], indices), hemicube);
+            if shooter.region.is_some() {
                 barriers(
                     &self.device,
                     cmd,
@@ -107,73 +152,9 @@ impl ShootingEngine {
             // Reduction atomics or region correction writes -> shooting read.
             self.record_shooting(cmd, &mut profiler, compute, slot);
         }
-        self.record_unshot_readback(cmd, &mut profiler);
-        self.batch_profiler = profiler;
-        self.batch_cmds.end()
-    }
-
-    /// Copies the unshot radiosity into the snapshot the batch's shooters
-    /// subtract.
-    fn record_snapshot(&self, cmd: vk::CommandBuffer) {
-        let d = &self.device;
-        barriers(
-            d,
-            cmd,
-            &[
-                // Earlier shots' update of unshot -> this copy's read.
-                buffer_barrier(
-                    self.unshot.raw(),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::TRANSFER_READ,
-                    ),
-                ),
-                // The previous batch's shooting reads of the snapshot -> this
-                // copy's write (WAR).
-                buffer_barrier(
-                    self.snapshot.raw(),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::empty(),
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::TRANSFER_WRITE,
-                    ),
-                ),
-            ],
-            &[],
-        );
-        let region = [vk::BufferCopy {
-            src_offset: 0,
-            dst_offset: 0,
-            size: 16 * self.element_count as u64,
-        }];
-        // SAFETY: both buffers hold element_count vec4s.
-        unsafe {
-            d.raw
-                .cmd_copy_buffer(cmd, self.unshot.raw(), self.snapshot.raw(), &region)
-        };
-        barriers(
-            d,
-            cmd,
-            // Snapshot copy -> the shooting passes' reads of it.
-            &[buffer_barrier(
-                self.snapshot.raw(),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_READ,
-                ),
-            )],
-            &[],
-        );
+        let readback = self.frames[frame].readback.raw();
+        self.record_unshot_readback(cmd, &mut profiler, readback);
+        self.frames[frame].profiler = profiler;
+        self.frames[frame].cmds.end()
     }
 }

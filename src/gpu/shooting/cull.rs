@@ -91,22 +91,28 @@ impl FaceCull {
 }
 
 impl ShootingEngine {
-    /// The triangles each face of each of `frames` may show, written to
-    /// the index buffer (`None` per frame when `face_culling` is off).
-    pub(super) fn cull_faces(&mut self, frames: &[[glam::Mat4; 5]]) -> Result<Vec<FaceDraws>> {
+    /// The triangles each face of each hemicube of `faces` may show,
+    /// written to batch frame `frame`'s index buffer (`None` per hemicube
+    /// when `face_culling` is off).
+    pub(super) fn cull_faces(
+        &mut self,
+        frame: usize,
+        faces: &[[glam::Mat4; 5]],
+    ) -> Result<Vec<FaceDraws>> {
         if !self.face_culling {
-            return Ok(vec![None; frames.len()]);
+            return Ok(vec![None; faces.len()]);
         }
         let start = std::time::Instant::now();
         let mut indices = Vec::new();
-        let draws = frames
+        let draws = faces
             .iter()
             .map(|faces| Some(self.cull.cull(faces, &mut indices)))
             .collect();
         let bytes = 4 * indices.len().max(1) as u64;
-        if self.indices.as_ref().is_none_or(|b| b.size() < bytes) {
-            // The previous submission was waited for: nothing uses the old one.
-            self.indices = Some(Buffer::new(
+        let slot = &mut self.frames[frame].indices;
+        if slot.as_ref().is_none_or(|b| b.size() < bytes) {
+            // This frame's last batch was waited for: nothing uses the old one.
+            *slot = Some(Buffer::new(
                 &self.device,
                 "hemicube face index lists",
                 bytes + bytes / 2,
@@ -114,7 +120,7 @@ impl ShootingEngine {
                 MemoryLocation::CpuToGpu,
             )?);
         }
-        if let Some(buffer) = self.indices.as_mut() {
+        if let Some(buffer) = slot.as_mut() {
             buffer.write(0, &indices)?;
         }
         self.times.add("face culling (CPU)", start.elapsed());

@@ -1,17 +1,22 @@
 //! The shooting passes: hemicube item buffer (5 faces into one atlas),
 //! form-factor reduction (compute, integer atomics), the exact-times-
-//! visibility correction of a region shot (compute, `ff_node.comp`) and
-//! shooting (compute), all on the GPU; the CPU picks the shooters, lists
-//! the triangles each face may show and reads unshot radiosity back.
+//! visibility correction of a region shot (compute, `ff_node.comp`), the
+//! shooter's unshot light (compute, `shot_light.comp`) and shooting
+//! (compute), all on the GPU; the CPU picks the shooters, lists the
+//! triangles each face may show and reads unshot radiosity back.
 //!
-//! Shots go in batches ([`ShootingEngine::shoot`], `batch.rs`): up to
+//! Shots go in batches ([`ShootingEngine::submit`], `batch.rs`): up to
 //! [`MAX_BATCH`] shooters recorded one after the other into one command
 //! buffer, each with its own slot of the parameter buffer, and one unshot
-//! readback at the end. Each face draws only the triangles it may show
-//! (`cull.rs`, index lists written by the CPU per shot). The uploaded-shot
-//! command buffer is recorded once; the batch and form-factor ones are
-//! recorded per submission (tens of commands).
+//! readback at the end. Up to [`FRAMES`] batches are in flight (`frame.rs`):
+//! the CPU prepares the next while the GPU runs the last. Each face draws
+//! only the triangles it may show (`cull.rs`, index lists written by the
+//! CPU per shot), at the hemicube resolution chosen per shooter (one
+//! weight table per resolution, the atlas's top-left corner). The
+//! uploaded-shot command buffer is recorded once; the batch and
+//! form-factor ones are recorded per submission (tens of commands).
 
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 use ash::vk;
@@ -27,14 +32,18 @@ use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::{Error, Result};
+use crate::formfactor::hemicube::Hemicube;
 
 mod batch;
 mod cull;
+mod frame;
 mod params;
 mod setup;
 mod upload_shot;
-pub use batch::MAX_BATCH;
+pub use batch::{BatchResult, MAX_BATCH};
 use cull::FaceCull;
+use frame::BatchFrame;
+pub use frame::FRAMES;
 pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
@@ -60,16 +69,28 @@ pub struct ShootingInputs<'a> {
     pub reflectance_area: &'a [[f32; 4]],
     /// Per element: initial radiosity = unshot radiosity (rgb, w unused).
     pub initial_radiosity: &'a [[f32; 4]],
-    /// Fixed-point delta form factor per atlas pixel, row-major.
-    pub weights: &'a [u32],
     /// Per element: corners and normal (region shots).
     pub geometry: &'a [ElementGeometry],
     /// Per element: its rank (position in the order shooters' ranges use).
     pub ranks: &'a [u32],
-    /// Atlas (width, height).
-    pub atlas: (u32, u32),
-    /// Viewport (x, y, w, h) of each face in the atlas.
-    pub face_viewports: [(u32, u32, u32, u32); 5],
+    /// The finest hemicube shots may use; each shooter may take it or a
+    /// coarser one ([`ShootingEngine::resolutions`]).
+    pub hemicube: Hemicube,
+}
+
+/// The coarsest hemicube resolution the engine keeps a weight table for.
+const MIN_RES: u32 = 32;
+
+/// `finest`, then every halving of it that is even and at least
+/// [`MIN_RES`] (all fit in `finest`'s atlas).
+fn hemicube_ladder(finest: Hemicube) -> Vec<Hemicube> {
+    let mut ladder = vec![finest];
+    let mut res = finest.res;
+    while res % 4 == 0 && res / 2 >= MIN_RES {
+        res /= 2;
+        ladder.push(Hemicube { res });
+    }
+    ladder
 }
 
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
@@ -86,11 +107,11 @@ const B_RADIOSITY: u32 = 5;
 const B_UNSHOT: u32 = 6;
 const B_GEOMETRY: u32 = 7;
 const B_RANKS: u32 = 8;
-const B_SNAPSHOT: u32 = 9;
+const B_SHOT_LIGHT: u32 = 9;
+const B_ORDER: u32 = 10;
 
 #[derive(Clone, Copy)]
 enum Submission {
-    Batch,
     FormFactors,
     UploadShoot,
 }
@@ -98,28 +119,31 @@ enum Submission {
 impl Submission {
     fn cpu_label(self) -> &'static str {
         match self {
-            Submission::Batch => "shot batch (CPU timer)",
             Submission::FormFactors => "hemicube (CPU timer)",
             Submission::UploadShoot => "uploaded shot (CPU timer)",
         }
     }
 }
 
+/// Time spent waiting for batches, without GPU timestamps: what the GPU
+/// took beyond the CPU's own work on the next batch.
+const BATCH_WAIT_LABEL: &str = "waiting for shot batches (CPU timer)";
+
 pub struct ShootingEngine {
     device: Arc<Device>,
     element_count: u32,
     triangle_vertices: u32,
-    atlas: (u32, u32),
-    face_viewports: [(u32, u32, u32, u32); 5],
-    /// [`MAX_BATCH`] slots of `params_stride` bytes (one `ShotParams` each,
-    /// aligned for dynamic uniform offsets).
+    /// Every hemicube a shot may use, finest first, with the index of its
+    /// first pixel's weight in the weight table.
+    hemicubes: Vec<(Hemicube, u32)>,
+    /// [`FRAMES`] x [`MAX_BATCH`] slots of `params_stride` bytes (one
+    /// `ShotParams` each, aligned for dynamic uniform offsets).
     params: Buffer,
     params_stride: u64,
-    readback: Buffer,
     radiosity: Buffer,
     unshot: Buffer,
-    /// The unshot radiosity when a batch of several shooters was picked.
-    snapshot: Buffer,
+    /// Per shooter of a batch: the unshot light it carried (shot_light.comp).
+    shot_light: Buffer,
     ff: Buffer,
     /// Host-visible form factors for shots computed on the CPU.
     ff_upload: Buffer,
@@ -129,25 +153,26 @@ pub struct ShootingEngine {
     _elements: Buffer,
     _geometry: Buffer,
     _ranks: Buffer,
+    _order: Buffer,
     item: Image,
     depth: Image,
     bindings: Bindings,
     item_pipeline: Pipeline,
     reduce_pipeline: Pipeline,
     region_pipeline: Pipeline,
+    light_pipeline: Pipeline,
     shoot_pipeline: Pipeline,
-    /// Re-recorded for every batch.
-    batch_cmds: Commands,
+    /// One per batch that may be in flight.
+    frames: Vec<BatchFrame>,
+    /// The frames whose batches are in flight, oldest first.
+    in_flight: VecDeque<usize>,
     ff_cmds: Commands,
     readback_cmds: Commands,
     upload_shoot_cmds: Commands,
-    batch_profiler: Option<GpuProfiler>,
     ff_profiler: Option<GpuProfiler>,
     upload_profiler: Option<GpuProfiler>,
     /// Per face, the triangles it may show (`cull.rs`).
     cull: FaceCull,
-    /// Host-visible index lists of the culled faces (grown as needed).
-    indices: Option<Buffer>,
     /// Draw only the triangles each face may show (default). Off: every
     /// triangle into every face, as before; the item buffer is the same.
     pub face_culling: bool,
@@ -174,12 +199,14 @@ impl ShootingEngine {
             inputs.triangles,
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
-        let weights = upload(
-            device,
-            "hemicube delta form factors",
-            inputs.weights,
-            storage,
-        )?;
+        // One table of fixed-point delta form factors per resolution.
+        let mut hemicubes = Vec::new();
+        let mut table: Vec<u32> = Vec::new();
+        for hemicube in hemicube_ladder(inputs.hemicube) {
+            hemicubes.push((hemicube, table.len() as u32));
+            table.extend(fixed_point_weights(&hemicube.delta_form_factors()));
+        }
+        let weights = upload(device, "hemicube delta form factors", &table, storage)?;
         let elements = upload(
             device,
             "element reflectance and area",
@@ -188,6 +215,18 @@ impl ShootingEngine {
         )?;
         let geometry = upload(device, "element geometry", inputs.geometry, storage)?;
         let ranks = upload(device, "element ranks", inputs.ranks, storage)?;
+        let mut element_of_rank = vec![u32::MAX; n];
+        for (element, &rank) in inputs.ranks.iter().enumerate() {
+            match element_of_rank.get_mut(rank as usize) {
+                Some(slot) if *slot == u32::MAX => *slot = element as u32,
+                _ => {
+                    return Err(Error::Invalid(format!(
+                        "element ranks are not a permutation (rank {rank} of element {element})"
+                    )))
+                }
+            }
+        }
+        let order = upload(device, "element of every rank", &element_of_rank, storage)?;
         let radiosity = upload(
             device,
             "element radiosity",
@@ -200,11 +239,11 @@ impl ShootingEngine {
             inputs.initial_radiosity,
             storage | src,
         )?;
-        let snapshot = Buffer::new(
+        let shot_light = Buffer::new(
             device,
-            "element unshot radiosity at the batch's pick",
-            16 * n as u64,
-            storage | dst,
+            "unshot light of each shooter of a batch",
+            16 * MAX_BATCH as u64,
+            storage | src,
             MemoryLocation::GpuOnly,
         )?;
         // One u32 per element, then the region shot's two row sums
@@ -223,27 +262,18 @@ impl ShootingEngine {
             src,
             MemoryLocation::CpuToGpu,
         )?;
-        let readback = Buffer::new(
-            device,
-            "element readback",
-            16 * n as u64,
-            dst,
-            MemoryLocation::GpuToCpu,
-        )?;
         let params_size = std::mem::size_of::<ShotParams>() as u64;
         let align = device.limits.min_uniform_buffer_offset_alignment.max(1);
         let params_stride = params_size.div_ceil(align) * align;
         let params = Buffer::new(
             device,
             "shot parameters",
-            params_stride * MAX_BATCH as u64,
+            params_stride * (FRAMES * MAX_BATCH) as u64,
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             MemoryLocation::CpuToGpu,
         )?;
-        let extent = vk::Extent2D {
-            width: inputs.atlas.0,
-            height: inputs.atlas.1,
-        };
+        let (width, height) = inputs.hemicube.atlas_size();
+        let extent = vk::Extent2D { width, height };
         let item = Image::new(
             device,
             "hemicube item buffer",
@@ -266,7 +296,8 @@ impl ShootingEngine {
             &item,
             (&params, params_size),
             &[
-                (B_SNAPSHOT, &snapshot),
+                (B_SHOT_LIGHT, &shot_light),
+                (B_ORDER, &order),
                 (B_WEIGHTS, &weights),
                 (B_FF, &ff),
                 (B_ELEMENTS, &elements),
@@ -276,21 +307,22 @@ impl ShootingEngine {
                 (B_RANKS, &ranks),
             ],
         )?;
-        let [item_pipeline, reduce_pipeline, region_pipeline, shoot_pipeline] =
+        let [item_pipeline, reduce_pipeline, region_pipeline, light_pipeline, shoot_pipeline] =
             pipelines(device, &bindings)?;
+        let frames = (0..FRAMES)
+            .map(|k| BatchFrame::new(device, k, n as u32))
+            .collect::<Result<Vec<_>>>()?;
 
         let mut engine = ShootingEngine {
             device: device.clone(),
             element_count: n as u32,
             triangle_vertices: inputs.triangles.len() as u32,
-            atlas: inputs.atlas,
-            face_viewports: inputs.face_viewports,
+            hemicubes,
             params,
             params_stride,
-            readback,
             radiosity,
             unshot,
-            snapshot,
+            shot_light,
             ff,
             ff_upload,
             _vertices: vertices,
@@ -298,27 +330,65 @@ impl ShootingEngine {
             _elements: elements,
             _geometry: geometry,
             _ranks: ranks,
+            _order: order,
             item,
             depth,
             bindings,
             item_pipeline,
             reduce_pipeline,
             region_pipeline,
+            light_pipeline,
             shoot_pipeline,
-            batch_cmds: Commands::new(device, "shot-batch commands")?,
+            frames,
+            in_flight: VecDeque::new(),
             ff_cmds: Commands::new(device, "form-factor commands")?,
             readback_cmds: Commands::new(device, "readback commands")?,
             upload_shoot_cmds: Commands::new(device, "upload-shoot commands")?,
-            batch_profiler: GpuProfiler::new(device, "shot-batch timestamps", batch::TIMESTAMPS)?,
             ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
             upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
             cull: FaceCull::new(inputs.triangles),
-            indices: None,
             face_culling: true,
             times: StageTimes::default(),
         };
         engine.record_upload_shoot()?;
         Ok(engine)
+    }
+
+    /// The hemicube resolutions a shot may use, finest first.
+    pub fn resolutions(&self) -> Vec<u32> {
+        self.hemicubes.iter().map(|(h, _)| h.res).collect()
+    }
+
+    /// The hemicube of resolution `res` and its weight table's offset.
+    fn hemicube(&self, res: u32) -> Result<(Hemicube, u32)> {
+        self.hemicubes
+            .iter()
+            .copied()
+            .find(|(h, _)| h.res == res)
+            .ok_or_else(|| {
+                Error::Invalid(format!(
+                    "no hemicube of resolution {res} (the engine has {:?})",
+                    self.resolutions()
+                ))
+            })
+    }
+
+    /// Batches submitted and not yet waited for.
+    pub fn in_flight(&self) -> usize {
+        self.in_flight.len()
+    }
+
+    /// Errors unless no batch is in flight (the one-off submissions share
+    /// frame 0's parameter slot and readback buffer).
+    fn ensure_idle(&self, what: &str) -> Result<()> {
+        if self.in_flight.is_empty() {
+            Ok(())
+        } else {
+            Err(Error::Invalid(format!(
+                "{what} while {} shot batches are in flight: wait for them first",
+                self.in_flight.len()
+            )))
+        }
     }
 
     pub fn element_count(&self) -> usize {
@@ -342,16 +412,18 @@ impl ShootingEngine {
         };
     }
 
-    /// Item buffer and reduction for the shooter in parameter slot `slot`:
-    /// leaves F(shooter -> every element) in `ff`. Waits for the earlier
-    /// frame's scan and for every earlier reader of `ff` (an earlier
-    /// shooter of the batch).
+    /// Item buffer and reduction for the shooter in parameter slot `slot`,
+    /// by `hemicube` (drawn into the atlas's top-left corner): leaves
+    /// F(shooter -> every element) in `ff`. `indices`: the face index lists
+    /// `draws` point into. Waits for the earlier frame's scan and for every
+    /// earlier reader of `ff` (an earlier shooter or batch).
     fn record_hemicube(
         &self,
         cmd: vk::CommandBuffer,
         profiler: &mut Option<GpuProfiler>,
         slot: usize,
-        draws: FaceDraws,
+        (draws, indices): (FaceDraws, Option<vk::Buffer>),
+        hemicube: Hemicube,
     ) {
         let d = &self.device;
         let raw = &d.raw;
@@ -363,7 +435,7 @@ impl ShootingEngine {
             false,
             self.ff.raw(),
         );
-        let (w, h) = self.atlas;
+        let (w, h) = hemicube.atlas_size();
         // SAFETY: cmd is recording; every handle is owned by self and outlives it.
         unsafe {
             begin_rendering(
@@ -385,11 +457,11 @@ impl ShootingEngine {
             raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
             self.bind_set(cmd, vk::PipelineBindPoint::GRAPHICS, slot);
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self._vertices.raw()], &[0]);
-            if let (Some(_), Some(indices)) = (draws, &self.indices) {
-                raw.cmd_bind_index_buffer(cmd, indices.raw(), 0, vk::IndexType::UINT32);
+            if let (Some(_), Some(indices)) = (draws, indices) {
+                raw.cmd_bind_index_buffer(cmd, indices, 0, vk::IndexType::UINT32);
             }
-            for (face, &(x, y, fw, fh)) in self.face_viewports.iter().enumerate() {
-                set_viewport(d, cmd, (x, y, fw, fh));
+            for face in 0..5 {
+                set_viewport(d, cmd, hemicube.face_viewport(face));
                 raw.cmd_push_constants(
                     cmd,
                     self.bindings.layout,
@@ -400,7 +472,7 @@ impl ShootingEngine {
                 match draws {
                     // Indices < triangle_vertices (cull.rs), written by the
                     // host before the submission.
-                    Some(draws) if self.indices.is_some() => {
+                    Some(draws) if indices.is_some() => {
                         let (first, count) = draws[face];
                         if count > 0 {
                             raw.cmd_draw_indexed(cmd, count, 1, first, 0, 0);
@@ -432,8 +504,9 @@ impl ShootingEngine {
         }
     }
 
-    /// The shooting dispatch of the shooter in parameter slot `slot`, after
-    /// `ff` was written by `ff_producer` (stage, access).
+    /// The shooter light and shooting dispatches of the shooter in
+    /// parameter slot `slot`, after `ff` was written by `ff_producer`
+    /// (stage, access).
     pub(super) fn record_shooting(
         &self,
         cmd: vk::CommandBuffer,
@@ -442,8 +515,10 @@ impl ShootingEngine {
         slot: usize,
     ) {
         let d = &self.device;
+        let compute = vk::PipelineStageFlags2::COMPUTE_SHADER;
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
+        let compute_or_copy = compute | vk::PipelineStageFlags2::COPY;
         barriers(
             d,
             cmd,
@@ -452,31 +527,58 @@ impl ShootingEngine {
                 buffer_barrier(
                     self.ff.raw(),
                     ff_producer,
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_READ,
-                    ),
+                    (compute, vk::AccessFlags2::SHADER_STORAGE_READ),
                 ),
-                // The previous shot's update of unshot (an earlier shooter of
-                // the batch: RAW/WAW), and the previous readback or snapshot
-                // copy of it (WAR) -> this shot's update.
+                // The previous shot's update of unshot (RAW/WAW), and the
+                // previous readback of it (WAR) -> this shot's light sum and
+                // update.
                 buffer_barrier(
                     self.unshot.raw(),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                    (compute_or_copy, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                    (compute, compute_rw),
                 ),
                 // The previous shot's update of radiosity (RAW/WAW), and the
                 // previous final-radiosity copy (WAR) -> this shot's update.
                 buffer_barrier(
                     self.radiosity.raw(),
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                    (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw),
+                    (compute_or_copy, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                    (compute, compute_rw),
+                ),
+                // The previous shots' reads and readback of the shooters'
+                // light -> this shooter's write of it (WAR).
+                buffer_barrier(
+                    self.shot_light.raw(),
+                    (compute_or_copy, vk::AccessFlags2::empty()),
+                    (compute, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                ),
+            ],
+            &[],
+        );
+        // SAFETY: cmd is recording; handles owned by self.
+        unsafe {
+            d.raw
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.light_pipeline.raw);
+            self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
+            d.raw.cmd_dispatch(cmd, 1, 1, 1);
+        }
+        if let Some(p) = profiler.as_mut() {
+            p.stamp(cmd, "shooter light");
+        }
+        barriers(
+            d,
+            cmd,
+            &[
+                // Light write -> shooting read.
+                buffer_barrier(
+                    self.shot_light.raw(),
+                    (compute, vk::AccessFlags2::SHADER_STORAGE_WRITE),
+                    (compute, vk::AccessFlags2::SHADER_STORAGE_READ),
+                ),
+                // Light sum's read of unshot -> shooting's write (WAR).
+                buffer_barrier(
+                    self.unshot.raw(),
+                    (compute, vk::AccessFlags2::empty()),
+                    (compute, compute_rw),
                 ),
             ],
             &[],
@@ -494,13 +596,23 @@ impl ShootingEngine {
         }
     }
 
-    /// Copies every element's unshot radiosity into the readback buffer.
+    /// Copies every element's unshot radiosity, then the light of each
+    /// shooter of the batch, into `readback`.
     pub(super) fn record_unshot_readback(
         &self,
         cmd: vk::CommandBuffer,
         profiler: &mut Option<GpuProfiler>,
+        readback: vk::Buffer,
     ) {
-        self.record_copy_to_host(cmd, self.unshot.raw(), 16);
+        let unshot_bytes = 16 * self.element_count as u64;
+        self.record_copies_to_host(
+            cmd,
+            &[
+                (self.unshot.raw(), unshot_bytes, 0),
+                (self.shot_light.raw(), 16 * MAX_BATCH as u64, unshot_bytes),
+            ],
+            readback,
+        );
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
         }
@@ -512,8 +624,15 @@ impl ShootingEngine {
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
         }
-        self.record_hemicube(cmd, &mut profiler, 0, draws);
-        self.record_copy_to_host(cmd, self.ff.raw(), 4);
+        let frame = &self.frames[0];
+        let indices = frame.indices.as_ref().map(|b| b.raw());
+        let (finest, _) = self.hemicubes[0];
+        self.record_hemicube(cmd, &mut profiler, 0, (draws, indices), finest);
+        self.record_copies_to_host(
+            cmd,
+            &[(self.ff.raw(), 4 * self.element_count as u64, 0)],
+            frame.readback.raw(),
+        );
         if let Some(p) = profiler.as_mut() {
             p.stamp(cmd, "readback");
         }
@@ -521,42 +640,49 @@ impl ShootingEngine {
         self.ff_cmds.end()
     }
 
-    /// Copies `stride` bytes per element of `buffer` into the readback buffer.
-    fn record_copy_to_host(&self, cmd: vk::CommandBuffer, buffer: vk::Buffer, stride: u64) {
+    /// Copies `(source, bytes, offset in readback)` from buffers that
+    /// compute passes wrote into the host-visible `readback`.
+    fn record_copies_to_host(
+        &self,
+        cmd: vk::CommandBuffer,
+        copies: &[(vk::Buffer, u64, u64)],
+        readback: vk::Buffer,
+    ) {
         let d = &self.device;
-        barriers(
-            d,
-            cmd,
-            // Compute writes of `buffer` -> copy read.
-            &[buffer_barrier(
-                buffer,
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_READ,
-                ),
-            )],
-            &[],
-        );
-        let region = [vk::BufferCopy {
-            src_offset: 0,
-            dst_offset: 0,
-            size: stride * self.element_count as u64,
-        }];
-        // SAFETY: both buffers are large enough for `region`.
-        unsafe {
-            d.raw
-                .cmd_copy_buffer(cmd, buffer, self.readback.raw(), &region)
-        };
+        let to_copy: Vec<_> = copies
+            .iter()
+            .map(|&(buffer, _, _)| {
+                // Compute writes of `buffer` -> copy read.
+                buffer_barrier(
+                    buffer,
+                    (
+                        vk::PipelineStageFlags2::COMPUTE_SHADER,
+                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                    ),
+                    (
+                        vk::PipelineStageFlags2::COPY,
+                        vk::AccessFlags2::TRANSFER_READ,
+                    ),
+                )
+            })
+            .collect();
+        barriers(d, cmd, &to_copy, &[]);
+        for &(buffer, size, dst_offset) in copies {
+            let region = [vk::BufferCopy {
+                src_offset: 0,
+                dst_offset,
+                size,
+            }];
+            // SAFETY: `buffer` holds `size` bytes and `readback` holds
+            // dst_offset + size (the callers size both for the elements).
+            unsafe { d.raw.cmd_copy_buffer(cmd, buffer, readback, &region) };
+        }
         barriers(
             d,
             cmd,
             // Readback copy -> host read after the fence.
             &[buffer_barrier(
-                self.readback.raw(),
+                readback,
                 (
                     vk::PipelineStageFlags2::COPY,
                     vk::AccessFlags2::TRANSFER_WRITE,
@@ -569,7 +695,8 @@ impl ShootingEngine {
 
     /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
     /// were computed on the CPU (`form_factors`, one per element).
-    pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<Vec<[f32; 4]>> {
+    pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<BatchResult> {
+        self.ensure_idle("an uploaded shot")?;
         if form_factors.len() != self.element_count as usize {
             return Err(Error::Invalid(format!(
                 "{} form factors for {} elements",
@@ -589,42 +716,43 @@ impl ShootingEngine {
         self.ff_upload.write(0, &fixed)?;
         self.write_params(
             0,
+            0,
             &Shooter {
                 region: None,
                 ..*shooter
             },
-            false,
         )?;
-        self.submit(Submission::UploadShoot)?;
-        self.readback.read(self.element_count as usize)
+        self.submit_and_wait(Submission::UploadShoot)?;
+        self.frames[0].read_result(self.element_count as usize, 1)
     }
 
-    /// Form factors F(point -> element) from a hemicube at the given frame,
-    /// for every element (no shooting).
+    /// Form factors F(point -> element) from the finest hemicube at the
+    /// given frame, for every element (no shooting).
     pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
+        self.ensure_idle("a form-factor row")?;
+        let (finest, _) = self.hemicubes[0];
         self.write_params(
+            0,
             0,
             &Shooter {
                 faces: *face_view_proj,
-                unshot: [0.0; 3],
                 area: 0.0,
                 ranks: (u32::MAX, u32::MAX),
+                resolution: finest.res,
                 region: None,
             },
-            false,
         )?;
-        let draws = self.cull_faces(&[*face_view_proj])?;
+        let draws = self.cull_faces(0, &[*face_view_proj])?;
         self.record_form_factors(draws[0])?;
-        self.submit(Submission::FormFactors)?;
-        let fixed: Vec<u32> = self.readback.read(self.element_count as usize)?;
+        self.submit_and_wait(Submission::FormFactors)?;
+        let fixed: Vec<u32> = self.frames[0].readback.read(self.element_count as usize)?;
         Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
     }
 
-    /// Submits one of the recorded command buffers, waits, and adds its
+    /// Submits one of the one-off command buffers, waits, and adds its
     /// time per pass (GPU timestamps, or one CPU-timed entry without them).
-    fn submit(&mut self, which: Submission) -> Result<()> {
+    fn submit_and_wait(&mut self, which: Submission) -> Result<()> {
         let (cmds, profiler) = match which {
-            Submission::Batch => (&self.batch_cmds, &self.batch_profiler),
             Submission::FormFactors => (&self.ff_cmds, &self.ff_profiler),
             Submission::UploadShoot => (&self.upload_shoot_cmds, &self.upload_profiler),
         };
@@ -639,28 +767,27 @@ impl ShootingEngine {
 
     /// Every element's radiosity (rgba, a unused).
     pub fn radiosity(&mut self) -> Result<Vec<[f32; 4]>> {
+        self.ensure_idle("reading the radiosity")?;
         let cmd = self.readback_cmds.begin()?;
-        barriers(
-            &self.device,
+        let readback = self.frames[0].readback.raw();
+        self.record_copies_to_host(
             cmd,
-            // Shooting writes of radiosity -> copy read.
-            &[buffer_barrier(
-                self.radiosity.raw(),
-                (
-                    vk::PipelineStageFlags2::COMPUTE_SHADER,
-                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                ),
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_READ,
-                ),
-            )],
-            &[],
+            &[(self.radiosity.raw(), 16 * self.element_count as u64, 0)],
+            readback,
         );
-        self.record_copy_to_host(cmd, self.radiosity.raw(), 16);
         self.readback_cmds.end()?;
         self.readback_cmds.submit_and_wait()?;
-        self.readback.read(self.element_count as usize)
+        self.frames[0].readback.read(self.element_count as usize)
+    }
+}
+
+impl Drop for ShootingEngine {
+    fn drop(&mut self) {
+        // Nothing in flight may outlive the buffers it uses (an error in the
+        // solve loop may drop the engine with batches pending).
+        for &f in &self.in_flight {
+            let _ = self.frames[f].cmds.wait();
+        }
     }
 }
 

@@ -10,16 +10,18 @@ use crate::error::{Error, Result};
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ShotParams {
     pub face_view_proj: [[f32; 16]; 5],
-    /// rgb: the shooter's unshot radiosity; w: its elements' area.
-    pub shooter_unshot: [f32; 4],
+    /// The area of the shooter's elements.
+    pub shooter_area: f32,
+    /// The shooter's place in its batch (its entry of the shot light).
+    pub slot: u32,
+    /// This shot's hemicube resolution and its weight table's offset.
+    pub hemicube_res: u32,
+    pub weight_offset: u32,
     pub element_count: u32,
     /// 0: the hemicube's form factors; 1: exact x visibility from `outline`.
     pub mode: u32,
     pub hemicube_pixels: u32,
-    /// 1: the shooter gives away its unshot radiosity of the batch's
-    /// snapshot (it is one of several shooters in one submission); 0: all
-    /// of it (it shoots alone). See glsl/shoot.comp.
-    pub subtract_snapshot: u32,
+    pub _pad0: u32,
     /// The shooter's elements: ranks [x, y).
     pub shooter_ranks: [u32; 4],
     pub outline: [[f32; 4]; MAX_OUTLINE],
@@ -54,12 +56,14 @@ pub struct Shooter<'a> {
     /// World -> clip of the five hemicube faces at its centre (unused when
     /// the form factors come from the CPU).
     pub faces: [glam::Mat4; 5],
-    /// Unshot radiosity (rgb) leaving it.
-    pub unshot: [f32; 3],
-    /// The area of its elements.
+    /// The area of its elements. Its unshot light is read on the GPU when
+    /// it shoots (glsl/shot_light.comp).
     pub area: f32,
     /// Its elements: ranks [start, end) in the order `ShootingInputs::ranks` numbers.
     pub ranks: (u32, u32),
+    /// Top-face resolution of its hemicube: one of
+    /// [`ShootingEngine::resolutions`].
+    pub resolution: u32,
     /// `Some` for a region shot: form factors are exact x visibility from
     /// this outline (glsl/ff_node.comp); `None`: the hemicube's own.
     pub region: Option<Region<'a>>,
@@ -83,23 +87,27 @@ pub struct Region<'a> {
 }
 
 impl ShootingEngine {
-    /// Writes `shooter`'s parameters into slot `slot` of the parameter
-    /// buffer (the dynamic offset `slot * params_stride` selects it).
-    /// `batched`: it shares its submission with other shooters.
+    /// Writes `shooter`'s parameters into parameter slot `slot` (the
+    /// dynamic offset `slot * params_stride` selects it); it is shooter
+    /// `in_batch` of its batch.
     pub(super) fn write_params(
         &mut self,
         slot: usize,
+        in_batch: usize,
         shooter: &Shooter,
-        batched: bool,
     ) -> Result<()> {
-        let [r, g, b] = shooter.unshot;
+        let (hemicube, weight_offset) = self.hemicube(shooter.resolution)?;
+        let (w, h) = hemicube.atlas_size();
         let mut params = ShotParams {
             face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
-            shooter_unshot: [r, g, b, shooter.area],
+            shooter_area: shooter.area,
+            slot: in_batch as u32,
+            hemicube_res: hemicube.res,
+            weight_offset,
             element_count: self.element_count,
             mode: 0,
-            hemicube_pixels: self.atlas.0 * self.atlas.1,
-            subtract_snapshot: batched as u32,
+            hemicube_pixels: w * h,
+            _pad0: 0,
             shooter_ranks: [shooter.ranks.0, shooter.ranks.1, 0, 0],
             outline: [[0.0; 4]; MAX_OUTLINE],
             centre_radius: [0.0; 4],

@@ -53,8 +53,9 @@ pub(super) fn bind_all(
     Ok(bindings)
 }
 
-/// The item-buffer, reduction, region-correction and shooting pipelines.
-pub(super) fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<[Pipeline; 4]> {
+/// The item-buffer, reduction, region-correction, shooter-light and
+/// shooting pipelines.
+pub(super) fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<[Pipeline; 5]> {
     let item_pipeline = Pipeline::graphics(
         device,
         "hemicube item buffer",
@@ -86,12 +87,19 @@ pub(super) fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<[Pi
         bindings.layout,
         shaders::FF_NODE_COMP,
     )?;
+    let light_pipeline = Pipeline::compute(
+        device,
+        "shooter light",
+        bindings.layout,
+        shaders::SHOT_LIGHT_COMP,
+    )?;
     let shoot_pipeline =
         Pipeline::compute(device, "shooting", bindings.layout, shaders::SHOOT_COMP)?;
     Ok([
         item_pipeline,
         reduce_pipeline,
         region_pipeline,
+        light_pipeline,
         shoot_pipeline,
     ])
 }

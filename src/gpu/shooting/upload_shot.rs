@@ -1,5 +1,6 @@
 //! Shots whose form factors the CPU computed (ray-traced or analytic):
-//! the upload copy in front of the same shooting dispatch.
+//! the upload copy in front of the same shooter-light and shooting
+//! dispatches, in parameter slot 0, read back through batch frame 0.
 
 use ash::vk;
 
@@ -57,7 +58,8 @@ impl ShootingEngine {
             ),
             0,
         );
-        self.record_unshot_readback(cmd, &mut profiler);
+        let readback = self.frames[0].readback.raw();
+        self.record_unshot_readback(cmd, &mut profiler, readback);
         self.upload_profiler = profiler;
         self.upload_shoot_cmds.end()
     }
