@@ -11,8 +11,12 @@
 //!     cargo bench --bench cornell_solve -- [--runs N] [--res PIXELS] [--converge F]
 //!         [--element-shots N] [--batch K] [--device SEL]
 //!
-//! `--batch K` (default 8): the batched rows' shooters per submission; the
-//! unbatched rows take 1.
+//! Rows per solver: one shooter per submission at a fixed hemicube
+//! resolution (the unbatched solver); `--batch K` (default 8) per
+//! submission, fixed; then each shot at the resolution its power needs
+//! (the default); then also two batches in flight (the CPU prepares the
+//! next while the GPU runs the last: the default on a GPU, not on a CPU
+//! device such as lavapipe, where both share the cores).
 //!
 //! On lavapipe the "GPU" is this process's threads, so wall time follows
 //! the machine's load; each run also prints the process's CPU time (user +
@@ -59,15 +63,25 @@ fn main() {
         ("element", Shooting::Element, element_shots),
         ("hierarchical", SolveSettings::default().shooting, 100_000),
     ] {
-        let settings = SolveSettings {
-            hemicube_res: res,
-            converge,
-            max_shots,
-            shooting,
-            ..Default::default()
-        };
-        for k in [1, batch] {
-            println!("{name} shooting, {k} per submission (at most {max_shots} shots):");
+        for (k, adapt_hemicube, in_flight) in [
+            (1, false, 1),
+            (batch, false, 1),
+            (batch, true, 1),
+            (batch, true, 2),
+        ] {
+            let settings = SolveSettings {
+                hemicube_res: res,
+                adapt_hemicube,
+                converge,
+                max_shots,
+                shooting,
+                in_flight: Some(in_flight),
+                ..Default::default()
+            };
+            let hemicube = if adapt_hemicube { "per shot" } else { "fixed" };
+            println!(
+                "{name} shooting, {k} per submission, hemicube {hemicube}, {in_flight} in flight (at most {max_shots} shots):"
+            );
             run(&plain, &profiled, &scene, &mesh, &settings, k, runs);
         }
     }

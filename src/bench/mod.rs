@@ -543,6 +543,8 @@ fn settings(method: FormFactorMethod, hemicube_res: u32) -> SolveSettings {
     SolveSettings {
         method,
         hemicube_res,
+        // The bench sweeps the resolution: every shot takes it.
+        adapt_hemicube: false,
         converge: CONVERGE,
         unshot_share: None,
         max_shots: SolveSettings::default().max_shots,

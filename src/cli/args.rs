@@ -192,6 +192,12 @@ pub(crate) struct RenderArgs {
     /// own work.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=2))]
     pub(crate) in_flight: Option<u8>,
+    /// Every shot renders its hemicube at --hemicube-res. Default: a shot
+    /// takes the resolution its power needs, from --hemicube-res for the
+    /// strongest down to a quarter of it for dim interreflection shots
+    /// (resolution proportional to the square root of the shot's power).
+    #[arg(long)]
+    pub(crate) fixed_hemicube: bool,
     /// Camera position (with --look-at; default: the scene's camera or an automatic one).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
     pub(crate) eye: Option<Vec3>,

@@ -72,6 +72,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.solve = SolveSettings {
         method: args.mesh.method()?,
         hemicube_res: args.mesh.hemicube_res,
+        adapt_hemicube: !args.fixed_hemicube,
         // --converge alone, else the stop error (with a floor far below it).
         converge: args.converge.unwrap_or(1e-6),
         unshot_share: args.converge.is_none().then_some(args.stop_error),

@@ -27,8 +27,13 @@ use crate::scene::Scene;
 #[derive(Debug, Clone, Copy)]
 pub struct SolveSettings {
     pub method: FormFactorMethod,
-    /// Hemicube top-face resolution in pixels (even).
+    /// Hemicube top-face resolution in pixels (even): the finest a shot
+    /// takes.
     pub hemicube_res: u32,
+    /// Each shot takes the hemicube resolution its power needs (down to a
+    /// quarter of `hemicube_res` for dim shots; see
+    /// `shoot::resolution_for`); false: every shot takes `hemicube_res`.
+    pub adapt_hemicube: bool,
     /// Stop when the unshot power is below this fraction of the emitted power.
     pub converge: f64,
     /// Also stop when the estimated share of the light still unshot in the
@@ -70,6 +75,7 @@ impl Default for SolveSettings {
         SolveSettings {
             method: FormFactorMethod::Hemicube,
             hemicube_res: 256,
+            adapt_hemicube: true,
             converge: 1e-3,
             unshot_share: None,
             max_shots: 100_000,
@@ -205,6 +211,7 @@ pub fn solve_batched(
         settings.method,
         settings.hemicube_res,
     )?;
+    shots_engine.adapt_resolution = settings.adapt_hemicube;
 
     let areas: Vec<f32> = mesh.elements.iter().map(|e| e.area).collect();
     let keys: Vec<f32> = unshot

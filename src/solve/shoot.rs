@@ -196,6 +196,9 @@ pub struct Shots<'a> {
     mesh: &'a Mesh,
     hemicube: Hemicube,
     engine: ShootingEngine,
+    /// The hemicube resolutions the engine has weight tables for, finest
+    /// first.
+    resolutions: Vec<u32>,
     cpu: Option<CpuFormFactors<'a>>,
     tree: ShooterTree,
     /// The patch of every vertex (vertices belong to one patch).
@@ -204,6 +207,11 @@ pub struct Shots<'a> {
     vertex_radiosity: Option<Vec<[f32; 3]>>,
     /// Batches submitted and not yet waited for, oldest first.
     pending: VecDeque<Pending>,
+    /// Choose each shooter's hemicube resolution from its power
+    /// ([`Self::resolution_for`]); off: every shot takes the finest.
+    pub adapt_resolution: bool,
+    /// The largest power one shot carried so far (mean channel).
+    strongest_shot: f64,
     cpu_times: StageTimes,
 }
 
@@ -243,6 +251,7 @@ impl<'a> Shots<'a> {
             scene,
             mesh,
             hemicube,
+            resolutions: engine.resolutions(),
             engine,
             cpu,
             // The engine holds its own copies: keep only the tree.
@@ -250,6 +259,8 @@ impl<'a> Shots<'a> {
             vertex_patch,
             vertex_radiosity,
             pending: VecDeque::new(),
+            adapt_resolution: true,
+            strongest_shot: 0.0,
             cpu_times: StageTimes::default(),
         })
     }
@@ -323,20 +334,26 @@ impl<'a> Shots<'a> {
             let area = n.area.max(f32::MIN_POSITIVE);
             // A region's hemicube stands where its light leaves from; the
             // outline's radius is taken around that point.
+            let light = unshot_light(tree, mesh, node, unshot);
             let (centre, radius) = if region {
-                let centre = unshot_light(tree, mesh, node, unshot).centre;
-                let radius = n.polygon.iter().map(|v| v.distance(centre));
-                (centre, radius.fold(0.0, f32::max))
+                let radius = n.polygon.iter().map(|v| v.distance(light.centre));
+                (light.centre, radius.fold(0.0, f32::max))
             } else {
                 (n.centre, n.radius)
             };
+            self.strongest_shot = self.strongest_shot.max(light.power);
             shooters.push(Shooter {
                 faces: self
                     .hemicube
                     .face_view_proj(centre, n.normal, near_plane(area)),
                 area: n.area,
                 ranks: (n.range.start, n.range.end),
-                resolution: self.hemicube.res,
+                resolution: resolution_for(
+                    &self.resolutions,
+                    light.power,
+                    self.strongest_shot,
+                    self.adapt_resolution,
+                ),
                 region: region.then_some(Region {
                     outline: &n.polygon,
                     centre,
@@ -448,10 +465,39 @@ impl<'a> Shots<'a> {
     }
 }
 
+/// The coarsest hemicube resolution of `ladder` (finest first) a shot of
+/// `power` may take, when the strongest shot so far carried `strongest`:
+/// the finest scaled by sqrt(power / strongest), at least a quarter of it.
+///
+/// A hemicube's aliasing error in a receiver's form factor goes as 1/res,
+/// so a shot adds an error of about power / res to the radiosity. Shots
+/// alias independently, so their errors add in quadrature, and for a
+/// given number of pixels (the render's cost) the total is least with res
+/// proportional to sqrt(power) (Lagrange). The first shots, which carry
+/// the direct light and most of the picture, keep the finest hemicube; the
+/// hundreds of dim interreflection shots of a fine mesh take a half or a
+/// quarter of it. Region shots correct their near field exactly and use
+/// the hemicube only for visibility there.
+fn resolution_for(ladder: &[u32], power: f64, strongest: f64, adapt: bool) -> u32 {
+    let finest = ladder[0];
+    if !adapt || strongest <= 0.0 {
+        return finest;
+    }
+    let wanted = (finest as f64 * (power / strongest).sqrt()).max(finest as f64 / 4.0);
+    ladder
+        .iter()
+        .copied()
+        .rev()
+        .find(|&res| res as f64 >= wanted)
+        .unwrap_or(finest)
+}
+
 /// A node's unshot light, from one pass over its elements.
 struct UnshotLight {
     /// Mean unshot radiosity over its elements (rgb).
     mean: [f32; 3],
+    /// The power that leaves it (mean channel).
+    power: f64,
     /// Where it leaves from: the elements' centres weighted by their
     /// unshot power (the node's centroid when it has none).
     centre: glam::Vec3,
@@ -473,6 +519,7 @@ fn unshot_light(tree: &ShooterTree, mesh: &Mesh, node: u32, unshot: &[[f32; 4]])
     let total = sum[0] + sum[1] + sum[2];
     UnshotLight {
         mean: sum.map(|x| (x / area as f64) as f32),
+        power: total / 3.0,
         centre: if total > 0.0 {
             (weighted / total).as_vec3()
         } else {
@@ -510,4 +557,28 @@ fn parts<'t>(
             (child.polygon.as_slice(), (level(c) / region_level) as f32)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::resolution_for;
+
+    #[test]
+    fn a_shot_takes_a_resolution_growing_with_the_root_of_its_power() {
+        let ladder = [256, 128, 64, 32];
+        // The strongest shot and those near it: the finest.
+        assert_eq!(resolution_for(&ladder, 1.0, 1.0, true), 256);
+        assert_eq!(resolution_for(&ladder, 0.3, 1.0, true), 256);
+        // A quarter of the power: half the resolution; a sixteenth: a quarter.
+        assert_eq!(resolution_for(&ladder, 0.25, 1.0, true), 128);
+        assert_eq!(resolution_for(&ladder, 1.0 / 16.0, 1.0, true), 64);
+        // Never below a quarter of the finest, however dim.
+        assert_eq!(resolution_for(&ladder, 1e-9, 1.0, true), 64);
+        // Off, or before any shot: the finest.
+        assert_eq!(resolution_for(&ladder, 1e-9, 1.0, false), 256);
+        assert_eq!(resolution_for(&ladder, 1.0, 0.0, true), 256);
+        // A ladder without the rung wanted takes the next finer one.
+        assert_eq!(resolution_for(&[96, 48], 1e-3, 1.0, true), 48);
+        assert_eq!(resolution_for(&[50], 1e-3, 1.0, true), 50);
+    }
 }

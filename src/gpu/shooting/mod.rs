@@ -801,4 +801,25 @@ mod tests {
         let fixed: u64 = fixed_point_weights(&w).iter().map(|&x| x as u64).sum();
         assert!((fixed as f64 / FF_FIXED_ONE - 1.0).abs() < 1e-8);
     }
+
+    #[test]
+    fn the_hemicube_ladder_halves_down_to_the_coarsest_kept() {
+        let ladder = |res| -> Vec<u32> {
+            hemicube_ladder(Hemicube { res })
+                .iter()
+                .map(|h| h.res)
+                .collect()
+        };
+        assert_eq!(ladder(256), [256, 128, 64, 32]);
+        // Halvings must stay even (side faces are half height).
+        assert_eq!(ladder(96), [96, 48]);
+        assert_eq!(ladder(50), [50]);
+        assert_eq!(ladder(32), [32]);
+        // Every rung fits in the finest one's atlas.
+        let finest = Hemicube { res: 256 };
+        for h in hemicube_ladder(finest) {
+            let (w, h) = h.atlas_size();
+            assert!(w <= finest.atlas_size().0 && h <= finest.atlas_size().1);
+        }
+    }
 }
