@@ -10,6 +10,9 @@ use glam::{Mat4, Vec3};
 use crate::geom::frustum::frustum;
 use crate::geom::tangent_frame;
 
+/// The coarsest resolution [`Hemicube::ladder`] goes down to.
+pub const COARSEST_RES: u32 = 32;
+
 /// A hemicube of `res` x `res` pixels on the top face.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Hemicube {
@@ -25,6 +28,19 @@ impl Hemicube {
             )));
         }
         Ok(Hemicube { res })
+    }
+
+    /// This hemicube, then every halving of it that is even and at least
+    /// [`COARSEST_RES`]: the resolutions a shot may take (each fits in
+    /// this one's atlas, in its top-left corner).
+    pub fn ladder(&self) -> Vec<Hemicube> {
+        let mut ladder = vec![*self];
+        let mut res = self.res;
+        while res % 4 == 0 && res / 2 >= COARSEST_RES {
+            res /= 2;
+            ladder.push(Hemicube { res });
+        }
+        ladder
     }
 
     /// (width, height) of the item-buffer atlas.
@@ -90,6 +106,23 @@ impl Hemicube {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_ladder_halves_down_to_the_coarsest_kept() {
+        let ladder =
+            |res| -> Vec<u32> { Hemicube { res }.ladder().iter().map(|h| h.res).collect() };
+        assert_eq!(ladder(256), [256, 128, 64, 32]);
+        // Halvings must stay even (side faces are half height).
+        assert_eq!(ladder(96), [96, 48]);
+        assert_eq!(ladder(50), [50]);
+        assert_eq!(ladder(32), [32]);
+        // Every rung fits in the finest one's atlas, at its top-left corner.
+        let finest = Hemicube { res: 256 };
+        for h in finest.ladder() {
+            let (w, ht) = h.atlas_size();
+            assert!(w <= finest.atlas_size().0 && ht <= finest.atlas_size().1);
+        }
+    }
 
     #[test]
     fn resolution_is_validated() {

@@ -14,7 +14,8 @@ use crate::formfactor::hemicube::Hemicube;
 use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::item::ItemVertex;
 use crate::gpu::shooting::{
-    BatchResult, ElementGeometry, Region, Shooter, ShootingEngine, ShootingInputs, FRAMES,
+    fixed_point_weights, BatchResult, ElementGeometry, HemicubeLayout, Region, Shooter,
+    ShootingEngine, ShootingInputs, FRAMES,
 };
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
@@ -98,6 +99,16 @@ impl GpuMesh {
 
     /// Builds the GPU engine over this mesh.
     pub fn engine(&self, device: &Arc<Device>, hemicube: Hemicube) -> Result<ShootingEngine> {
+        let hemicubes: Vec<HemicubeLayout> = hemicube
+            .ladder()
+            .into_iter()
+            .map(|h| HemicubeLayout {
+                res: h.res,
+                atlas: h.atlas_size(),
+                face_viewports: std::array::from_fn(|f| h.face_viewport(f)),
+                weights: fixed_point_weights(&h.delta_form_factors()),
+            })
+            .collect();
         ShootingEngine::new(
             device,
             &ShootingInputs {
@@ -106,7 +117,7 @@ impl GpuMesh {
                 initial_radiosity: &self.emission,
                 geometry: &self.geometry,
                 ranks: &self.tree.rank,
-                hemicube,
+                hemicubes: &hemicubes,
             },
         )
     }

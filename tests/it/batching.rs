@@ -74,8 +74,11 @@ fn cornell(shooting: Shooting, edges_per_extent: f32, in_flight: usize) -> (f64,
     // shots: both are within about that of the exact solution, so they
     // differ by about the light still unshot, not by anything a wrong batch
     // (a shooter losing what it received, one shooting twice) would make
-    // (percents: see closed_room_balances_with_batching).
-    assert!(rel_rms < 0.01, "rel. RMS {:.3}%", 100.0 * rel_rms);
+    // (percents: see closed_room_balances_with_batching). Two in flight
+    // pick from older values, which moves the last shots further (1.04%
+    // in a debug build, 0.79% in release: the CPU's float sums differ).
+    let limit = if in_flight > 1 { 0.02 } else { 0.01 };
+    assert!(rel_rms < limit, "rel. RMS {:.3}%", 100.0 * rel_rms);
     assert!(bias.abs() < 0.002, "bias {:+.3}%", 100.0 * bias);
     // One readback per batch.
     assert!(batched.residual_history.len() * 2 < one.residual_history.len());

@@ -112,7 +112,7 @@ impl ShootingEngine {
     ) -> Result<()> {
         let hemicubes = shooters
             .iter()
-            .map(|s| self.hemicube(s.resolution).map(|(h, _)| h))
+            .map(|s| self.hemicube(s.resolution).map(|(h, _)| h.clone()))
             .collect::<Result<Vec<_>>>()?;
         let cmd = self.frames[frame].cmds.begin()?;
         let mut profiler = self.frames[frame].profiler.take();
@@ -123,7 +123,7 @@ impl ShootingEngine {
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         let compute = (vk::PipelineStageFlags2::COMPUTE_SHADER, compute_rw);
         let indices = self.frames[frame].indices.as_ref().map(|b| b.raw());
-        for (k, (shooter, &hemicube)) in shooters.iter().zip(&hemicubes).enumerate() {
+        for (k, (shooter, hemicube)) in shooters.iter().zip(&hemicubes).enumerate() {
             let slot = frame * MAX_BATCH + k;
             self.record_hemicube(cmd, &mut profiler, slot, (draws[k], indices), hemicube);
             if shooter.region.is_some() {

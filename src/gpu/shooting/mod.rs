@@ -32,12 +32,13 @@ use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::{Error, Result};
-use crate::formfactor::hemicube::Hemicube;
 
 mod batch;
 mod cull;
+mod form_factors;
 mod frame;
 mod params;
+mod readback;
 mod setup;
 mod upload_shot;
 pub use batch::{BatchResult, MAX_BATCH};
@@ -73,24 +74,24 @@ pub struct ShootingInputs<'a> {
     pub geometry: &'a [ElementGeometry],
     /// Per element: its rank (position in the order shooters' ranges use).
     pub ranks: &'a [u32],
-    /// The finest hemicube shots may use; each shooter may take it or a
-    /// coarser one ([`ShootingEngine::resolutions`]).
-    pub hemicube: Hemicube,
+    /// The hemicubes a shot may use, finest first; each fits in the
+    /// finest one's atlas (a shooter names its own:
+    /// [`ShootingEngine::resolutions`]).
+    pub hemicubes: &'a [HemicubeLayout],
 }
 
-/// The coarsest hemicube resolution the engine keeps a weight table for.
-const MIN_RES: u32 = 32;
-
-/// `finest`, then every halving of it that is even and at least
-/// [`MIN_RES`] (all fit in `finest`'s atlas).
-fn hemicube_ladder(finest: Hemicube) -> Vec<Hemicube> {
-    let mut ladder = vec![finest];
-    let mut res = finest.res;
-    while res % 4 == 0 && res / 2 >= MIN_RES {
-        res /= 2;
-        ladder.push(Hemicube { res });
-    }
-    ladder
+/// One hemicube resolution a shot may take: where its five faces lie in
+/// the item-buffer atlas, and the fixed-point delta form factor of every
+/// pixel of its `atlas` (row-major).
+#[derive(Debug, Clone)]
+pub struct HemicubeLayout {
+    /// Top-face resolution.
+    pub res: u32,
+    /// (width, height) of its atlas: the top-left corner of the engine's.
+    pub atlas: (u32, u32),
+    /// Viewport (x, y, w, h) of each face.
+    pub face_viewports: [(u32, u32, u32, u32); 5],
+    pub weights: Vec<u32>,
 }
 
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
@@ -133,9 +134,9 @@ pub struct ShootingEngine {
     device: Arc<Device>,
     element_count: u32,
     triangle_vertices: u32,
-    /// Every hemicube a shot may use, finest first, with the index of its
-    /// first pixel's weight in the weight table.
-    hemicubes: Vec<(Hemicube, u32)>,
+    /// Every hemicube a shot may use, finest first (its weights emptied),
+    /// with the index of its first pixel's weight in the weight table.
+    hemicubes: Vec<(HemicubeLayout, u32)>,
     /// [`FRAMES`] x [`MAX_BATCH`] slots of `params_stride` bytes (one
     /// `ShotParams` each, aligned for dynamic uniform offsets).
     params: Buffer,
@@ -200,11 +201,27 @@ impl ShootingEngine {
             vk::BufferUsageFlags::VERTEX_BUFFER,
         )?;
         // One table of fixed-point delta form factors per resolution.
+        let Some(finest) = inputs.hemicubes.first() else {
+            return Err(Error::Invalid("the engine needs a hemicube".into()));
+        };
         let mut hemicubes = Vec::new();
         let mut table: Vec<u32> = Vec::new();
-        for hemicube in hemicube_ladder(inputs.hemicube) {
-            hemicubes.push((hemicube, table.len() as u32));
-            table.extend(fixed_point_weights(&hemicube.delta_form_factors()));
+        for h in inputs.hemicubes {
+            let (w, ht) = h.atlas;
+            if w > finest.atlas.0 || ht > finest.atlas.1 || h.weights.len() != (w * ht) as usize {
+                return Err(Error::Invalid(format!(
+                    "hemicube {}: a {w}x{ht} atlas with {} weights does not fit the finest's {:?}",
+                    h.res,
+                    h.weights.len(),
+                    finest.atlas
+                )));
+            }
+            let layout = HemicubeLayout {
+                weights: Vec::new(),
+                ..h.clone()
+            };
+            hemicubes.push((layout, table.len() as u32));
+            table.extend_from_slice(&h.weights);
         }
         let weights = upload(device, "hemicube delta form factors", &table, storage)?;
         let elements = upload(
@@ -272,7 +289,7 @@ impl ShootingEngine {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             MemoryLocation::CpuToGpu,
         )?;
-        let (width, height) = inputs.hemicube.atlas_size();
+        let (width, height) = finest.atlas;
         let extent = vk::Extent2D { width, height };
         let item = Image::new(
             device,
@@ -360,10 +377,10 @@ impl ShootingEngine {
     }
 
     /// The hemicube of resolution `res` and its weight table's offset.
-    fn hemicube(&self, res: u32) -> Result<(Hemicube, u32)> {
+    fn hemicube(&self, res: u32) -> Result<(&HemicubeLayout, u32)> {
         self.hemicubes
             .iter()
-            .copied()
+            .map(|(h, offset)| (h, *offset))
             .find(|(h, _)| h.res == res)
             .ok_or_else(|| {
                 Error::Invalid(format!(
@@ -423,7 +440,7 @@ impl ShootingEngine {
         profiler: &mut Option<GpuProfiler>,
         slot: usize,
         (draws, indices): (FaceDraws, Option<vk::Buffer>),
-        hemicube: Hemicube,
+        hemicube: &HemicubeLayout,
     ) {
         let d = &self.device;
         let raw = &d.raw;
@@ -435,7 +452,7 @@ impl ShootingEngine {
             false,
             self.ff.raw(),
         );
-        let (w, h) = hemicube.atlas_size();
+        let (w, h) = hemicube.atlas;
         // SAFETY: cmd is recording; every handle is owned by self and outlives it.
         unsafe {
             begin_rendering(
@@ -460,8 +477,8 @@ impl ShootingEngine {
             if let (Some(_), Some(indices)) = (draws, indices) {
                 raw.cmd_bind_index_buffer(cmd, indices, 0, vk::IndexType::UINT32);
             }
-            for face in 0..5 {
-                set_viewport(d, cmd, hemicube.face_viewport(face));
+            for (face, &viewport) in hemicube.face_viewports.iter().enumerate() {
+                set_viewport(d, cmd, viewport);
                 raw.cmd_push_constants(
                     cmd,
                     self.bindings.layout,
@@ -596,159 +613,6 @@ impl ShootingEngine {
         }
     }
 
-    /// Copies every element's unshot radiosity, then the light of each
-    /// shooter of the batch, into `readback`.
-    pub(super) fn record_unshot_readback(
-        &self,
-        cmd: vk::CommandBuffer,
-        profiler: &mut Option<GpuProfiler>,
-        readback: vk::Buffer,
-    ) {
-        let unshot_bytes = 16 * self.element_count as u64;
-        self.record_copies_to_host(
-            cmd,
-            &[
-                (self.unshot.raw(), unshot_bytes, 0),
-                (self.shot_light.raw(), 16 * MAX_BATCH as u64, unshot_bytes),
-            ],
-            readback,
-        );
-        if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "readback");
-        }
-    }
-
-    fn record_form_factors(&mut self, draws: FaceDraws) -> Result<()> {
-        let cmd = self.ff_cmds.begin()?;
-        let mut profiler = self.ff_profiler.take();
-        if let Some(p) = profiler.as_mut() {
-            p.begin(cmd);
-        }
-        let frame = &self.frames[0];
-        let indices = frame.indices.as_ref().map(|b| b.raw());
-        let (finest, _) = self.hemicubes[0];
-        self.record_hemicube(cmd, &mut profiler, 0, (draws, indices), finest);
-        self.record_copies_to_host(
-            cmd,
-            &[(self.ff.raw(), 4 * self.element_count as u64, 0)],
-            frame.readback.raw(),
-        );
-        if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "readback");
-        }
-        self.ff_profiler = profiler;
-        self.ff_cmds.end()
-    }
-
-    /// Copies `(source, bytes, offset in readback)` from buffers that
-    /// compute passes wrote into the host-visible `readback`.
-    fn record_copies_to_host(
-        &self,
-        cmd: vk::CommandBuffer,
-        copies: &[(vk::Buffer, u64, u64)],
-        readback: vk::Buffer,
-    ) {
-        let d = &self.device;
-        let to_copy: Vec<_> = copies
-            .iter()
-            .map(|&(buffer, _, _)| {
-                // Compute writes of `buffer` -> copy read.
-                buffer_barrier(
-                    buffer,
-                    (
-                        vk::PipelineStageFlags2::COMPUTE_SHADER,
-                        vk::AccessFlags2::SHADER_STORAGE_WRITE,
-                    ),
-                    (
-                        vk::PipelineStageFlags2::COPY,
-                        vk::AccessFlags2::TRANSFER_READ,
-                    ),
-                )
-            })
-            .collect();
-        barriers(d, cmd, &to_copy, &[]);
-        for &(buffer, size, dst_offset) in copies {
-            let region = [vk::BufferCopy {
-                src_offset: 0,
-                dst_offset,
-                size,
-            }];
-            // SAFETY: `buffer` holds `size` bytes and `readback` holds
-            // dst_offset + size (the callers size both for the elements).
-            unsafe { d.raw.cmd_copy_buffer(cmd, buffer, readback, &region) };
-        }
-        barriers(
-            d,
-            cmd,
-            // Readback copy -> host read after the fence.
-            &[buffer_barrier(
-                readback,
-                (
-                    vk::PipelineStageFlags2::COPY,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
-                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
-            )],
-            &[],
-        );
-    }
-
-    /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
-    /// were computed on the CPU (`form_factors`, one per element).
-    pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<BatchResult> {
-        self.ensure_idle("an uploaded shot")?;
-        if form_factors.len() != self.element_count as usize {
-            return Err(Error::Invalid(format!(
-                "{} form factors for {} elements",
-                form_factors.len(),
-                self.element_count
-            )));
-        }
-        // Same fixed point as the hemicube reduction; u32 holds up to F = 2.
-        let fixed: Vec<u32> = form_factors
-            .iter()
-            .map(|&f| {
-                (f.max(0.0) as f64 * FF_FIXED_ONE)
-                    .round()
-                    .min(u32::MAX as f64) as u32
-            })
-            .collect();
-        self.ff_upload.write(0, &fixed)?;
-        self.write_params(
-            0,
-            0,
-            &Shooter {
-                region: None,
-                ..*shooter
-            },
-        )?;
-        self.submit_and_wait(Submission::UploadShoot)?;
-        self.frames[0].read_result(self.element_count as usize, 1)
-    }
-
-    /// Form factors F(point -> element) from the finest hemicube at the
-    /// given frame, for every element (no shooting).
-    pub fn form_factors(&mut self, face_view_proj: &[glam::Mat4; 5]) -> Result<Vec<f64>> {
-        self.ensure_idle("a form-factor row")?;
-        let (finest, _) = self.hemicubes[0];
-        self.write_params(
-            0,
-            0,
-            &Shooter {
-                faces: *face_view_proj,
-                area: 0.0,
-                ranks: (u32::MAX, u32::MAX),
-                resolution: finest.res,
-                region: None,
-            },
-        )?;
-        let draws = self.cull_faces(0, &[*face_view_proj])?;
-        self.record_form_factors(draws[0])?;
-        self.submit_and_wait(Submission::FormFactors)?;
-        let fixed: Vec<u32> = self.frames[0].readback.read(self.element_count as usize)?;
-        Ok(fixed.into_iter().map(|f| f as f64 / FF_FIXED_ONE).collect())
-    }
-
     /// Submits one of the one-off command buffers, waits, and adds its
     /// time per pass (GPU timestamps, or one CPU-timed entry without them).
     fn submit_and_wait(&mut self, which: Submission) -> Result<()> {
@@ -763,21 +627,6 @@ impl ShootingEngine {
             None => self.times.add(which.cpu_label(), start.elapsed()),
         }
         Ok(())
-    }
-
-    /// Every element's radiosity (rgba, a unused).
-    pub fn radiosity(&mut self) -> Result<Vec<[f32; 4]>> {
-        self.ensure_idle("reading the radiosity")?;
-        let cmd = self.readback_cmds.begin()?;
-        let readback = self.frames[0].readback.raw();
-        self.record_copies_to_host(
-            cmd,
-            &[(self.radiosity.raw(), 16 * self.element_count as u64, 0)],
-            readback,
-        );
-        self.readback_cmds.end()?;
-        self.readback_cmds.submit_and_wait()?;
-        self.frames[0].readback.read(self.element_count as usize)
     }
 }
 
@@ -800,26 +649,5 @@ mod tests {
         let w: Vec<f64> = (1..=64).map(|k| k as f64 / 2080.0).collect();
         let fixed: u64 = fixed_point_weights(&w).iter().map(|&x| x as u64).sum();
         assert!((fixed as f64 / FF_FIXED_ONE - 1.0).abs() < 1e-8);
-    }
-
-    #[test]
-    fn the_hemicube_ladder_halves_down_to_the_coarsest_kept() {
-        let ladder = |res| -> Vec<u32> {
-            hemicube_ladder(Hemicube { res })
-                .iter()
-                .map(|h| h.res)
-                .collect()
-        };
-        assert_eq!(ladder(256), [256, 128, 64, 32]);
-        // Halvings must stay even (side faces are half height).
-        assert_eq!(ladder(96), [96, 48]);
-        assert_eq!(ladder(50), [50]);
-        assert_eq!(ladder(32), [32]);
-        // Every rung fits in the finest one's atlas.
-        let finest = Hemicube { res: 256 };
-        for h in hemicube_ladder(finest) {
-            let (w, h) = h.atlas_size();
-            assert!(w <= finest.atlas_size().0 && h <= finest.atlas_size().1);
-        }
     }
 }

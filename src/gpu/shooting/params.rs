@@ -97,7 +97,7 @@ impl ShootingEngine {
         shooter: &Shooter,
     ) -> Result<()> {
         let (hemicube, weight_offset) = self.hemicube(shooter.resolution)?;
-        let (w, h) = hemicube.atlas_size();
+        let (w, h) = hemicube.atlas;
         let mut params = ShotParams {
             face_view_proj: shooter.faces.map(|m| m.to_cols_array()),
             shooter_area: shooter.area,

@@ -4,8 +4,8 @@
 
 use ash::vk;
 
-use super::ShootingEngine;
-use crate::error::Result;
+use super::{BatchResult, Shooter, ShootingEngine, Submission, FF_FIXED_ONE};
+use crate::error::{Error, Result};
 use crate::gpu::commands::{barriers, buffer_barrier};
 
 impl ShootingEngine {
@@ -62,5 +62,38 @@ impl ShootingEngine {
         self.record_unshot_readback(cmd, &mut profiler, readback);
         self.upload_profiler = profiler;
         self.upload_shoot_cmds.end()
+    }
+
+    /// A shot like [`Self::shoot`] whose form factors F(shooter -> element)
+    /// were computed on the CPU (`form_factors`, one per element).
+    pub fn shoot_with(&mut self, form_factors: &[f32], shooter: &Shooter) -> Result<BatchResult> {
+        self.ensure_idle("an uploaded shot")?;
+        if form_factors.len() != self.element_count as usize {
+            return Err(Error::Invalid(format!(
+                "{} form factors for {} elements",
+                form_factors.len(),
+                self.element_count
+            )));
+        }
+        // Same fixed point as the hemicube reduction; u32 holds up to F = 2.
+        let fixed: Vec<u32> = form_factors
+            .iter()
+            .map(|&f| {
+                (f.max(0.0) as f64 * FF_FIXED_ONE)
+                    .round()
+                    .min(u32::MAX as f64) as u32
+            })
+            .collect();
+        self.ff_upload.write(0, &fixed)?;
+        self.write_params(
+            0,
+            0,
+            &Shooter {
+                region: None,
+                ..*shooter
+            },
+        )?;
+        self.submit_and_wait(Submission::UploadShoot)?;
+        self.frames[0].read_result(self.element_count as usize, 1)
     }
 }
