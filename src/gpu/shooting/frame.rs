@@ -58,9 +58,7 @@ impl BatchFrame {
             pending: 0,
         })
     }
-}
 
-impl BatchFrame {
     /// What the batch of `shooters` shooters left in the readback buffer
     /// (after its fence).
     pub fn read_result(&self, elements: usize, shooters: usize) -> Result<BatchResult> {
