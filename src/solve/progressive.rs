@@ -5,9 +5,10 @@
 //!
 //! Shots go in batches (Southwell with blocks): the heap's top shooters,
 //! disjoint, are picked at once from the unshot radiosity read back last
-//! and shot in one GPU submission, each carrying the unshot light it held
-//! at the pick (what earlier shooters of the batch send it stays unshot for
-//! a later batch); one readback re-keys the heap. See [`solve_batched`].
+//! and shot in one GPU submission, each carrying the unshot light it holds
+//! when it shoots (read on the GPU); one readback re-keys the heap. With
+//! two batches in flight the next is picked while the last one runs. See
+//! [`solve_batched`].
 
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -31,8 +32,9 @@ pub struct SolveSettings {
     /// takes.
     pub hemicube_res: u32,
     /// Each shot takes the hemicube resolution its power needs (down to a
-    /// quarter of `hemicube_res` for dim shots; see
-    /// `shoot::resolution_for`); false: every shot takes `hemicube_res`.
+    /// quarter of `hemicube_res` for dim shots, never below what resolves
+    /// the mesh; see `shoot::resolution_for`); false: every shot takes
+    /// `hemicube_res`.
     pub adapt_hemicube: bool,
     /// Stop when the unshot power is below this fraction of the emitted power.
     pub converge: f64,
@@ -87,8 +89,9 @@ impl Default for SolveSettings {
 }
 
 /// The node that shoots for heap top `top` when `taken` are picked
-/// already (in its batch or in one in flight): `grown`, the hierarchy's pick, unless it contains one of them
-/// (nodes are nested or disjoint, and `top` lies in none of them); then the
+/// already (in its batch or in one in flight): `grown`, the hierarchy's
+/// pick, unless it contains one of them (nodes are nested or disjoint, and
+/// `top` lies in none of them); then the
 /// highest node on the way from `top`'s leaf up to `grown` that contains
 /// none (every such node of at most [`MAX_NODE_VERTICES`] corners passed
 /// the same rule), at worst the leaf.
@@ -209,9 +212,8 @@ pub fn solve_batched(
         mesh,
         gpu_mesh,
         settings.method,
-        settings.hemicube_res,
+        (settings.hemicube_res, settings.adapt_hemicube),
     )?;
-    shots_engine.adapt_resolution = settings.adapt_hemicube;
 
     let areas: Vec<f32> = mesh.elements.iter().map(|e| e.area).collect();
     let keys: Vec<f32> = unshot

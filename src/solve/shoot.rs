@@ -218,14 +218,13 @@ pub struct Shots<'a> {
     vertex_radiosity: Option<Vec<[f32; 3]>>,
     /// Batches submitted and not yet waited for, oldest first.
     pending: VecDeque<Pending>,
-    /// Choose each shooter's hemicube resolution from its power
-    /// ([`Self::resolution_for`]); off: every shot takes the finest.
-    pub adapt_resolution: bool,
     /// The largest power one shot carried so far (mean channel).
     strongest_shot: f64,
-    /// The coarsest hemicube that resolves this mesh's elements
-    /// ([`resolving_resolution`]).
-    resolving_res: u32,
+    /// The coarsest hemicube resolution a shot may take
+    /// ([`resolution_for`]'s floor): what resolves this mesh's elements
+    /// ([`resolving_resolution`]), or beyond the finest when every shot
+    /// takes the finest.
+    min_resolution: u32,
     cpu_times: StageTimes,
 }
 
@@ -238,13 +237,15 @@ enum Pending {
 }
 
 impl<'a> Shots<'a> {
+    /// `hemicube_res`: the finest hemicube; `adapt_resolution`: dimmer
+    /// shots may take coarser ones ([`resolution_for`]).
     pub fn new(
         device: &Arc<Device>,
         scene: &'a Scene,
         mesh: &'a Mesh,
         gpu_mesh: GpuMesh,
         method: FormFactorMethod,
-        hemicube_res: u32,
+        (hemicube_res, adapt_resolution): (u32, bool),
     ) -> Result<Self> {
         let hemicube = Hemicube::new(hemicube_res)?;
         let engine = gpu_mesh.engine(device, hemicube)?;
@@ -273,9 +274,12 @@ impl<'a> Shots<'a> {
             vertex_patch,
             vertex_radiosity,
             pending: VecDeque::new(),
-            adapt_resolution: true,
             strongest_shot: 0.0,
-            resolving_res: resolving_resolution(scene, mesh),
+            min_resolution: if adapt_resolution {
+                resolving_resolution(scene, mesh)
+            } else {
+                u32::MAX
+            },
             cpu_times: StageTimes::default(),
         })
     }
@@ -367,11 +371,7 @@ impl<'a> Shots<'a> {
                     &self.resolutions,
                     light.power,
                     self.strongest_shot,
-                    if self.adapt_resolution {
-                        self.resolving_res
-                    } else {
-                        u32::MAX
-                    },
+                    self.min_resolution,
                 ),
                 region: region.then_some(Region {
                     outline: &n.polygon,

@@ -35,6 +35,14 @@ fn difference(
     ((sq / area).sqrt() / (sum_r / area), sum_o / sum_r - 1.0)
 }
 
+/// A closed 2 m cube of reflectance `rho` whose first face emits.
+fn grey_room(rho: f32) -> vkrad::scene::Scene {
+    scene(
+        closed_cube(2.0, 1, 0),
+        vec![material(rho, 0.0), material(rho, 1.0)],
+    )
+}
+
 /// One shooter per submission, waited for before the next pick, against
 /// [`MAX_BATCH`] per submission with `in_flight` batches in flight.
 fn cornell(shooting: Shooting, edges_per_extent: f32, in_flight: usize) -> (f64, f64) {
@@ -115,10 +123,7 @@ fn closed_room_balances_with_batching() {
     for (shooting, in_flight) in cases {
         let device = device();
         let rho = 0.8;
-        let s = scene(
-            closed_cube(2.0, 1, 0),
-            vec![material(rho, 0.0), material(rho, 1.0)],
-        );
+        let s = grey_room(rho);
         let mesh = vkrad::mesh::uniform(&s, 0.5);
         let settings = SolveSettings {
             hemicube_res: 64,
@@ -169,10 +174,7 @@ fn closed_room_balances_with_batching() {
 #[test]
 fn overlapping_or_oversized_batches_are_refused() {
     let device = device();
-    let s = scene(
-        closed_cube(2.0, 1, 0),
-        vec![material(0.5, 0.0), material(0.5, 1.0)],
-    );
+    let s = grey_room(0.5);
     let mesh = vkrad::mesh::uniform(&s, 1.0);
     let gpu = vkrad::solve::GpuMesh::new(&s, &mesh);
     let hemicube = vkrad::formfactor::hemicube::Hemicube::new(32).unwrap();
@@ -204,19 +206,14 @@ fn overlapping_or_oversized_batches_are_refused() {
 #[test]
 fn batches_in_flight_come_back_in_order() {
     let device = device();
-    let s = scene(
-        closed_cube(2.0, 1, 0),
-        vec![material(0.5, 0.0), material(0.5, 1.0)],
-    );
+    let s = grey_room(0.5);
     let mesh = vkrad::mesh::uniform(&s, 1.0);
     let gpu = vkrad::solve::GpuMesh::new(&s, &mesh);
     let hemicube = vkrad::formfactor::hemicube::Hemicube::new(32).unwrap();
     let mut engine = gpu.engine(&device, hemicube).unwrap();
-    // The emitter is patch 0: its elements come first in the tree's order
-    // only by chance, so shoot whole ranges of known elements instead.
-    let centre = |e: usize| mesh.elements[e].centre;
+    // One emitting element per shot, by its rank.
     let shooter = |e: usize| vkrad::gpu::shooting::Shooter {
-        faces: hemicube.face_view_proj(centre(e), mesh.elements[e].normal, 1e-4),
+        faces: hemicube.face_view_proj(mesh.elements[e].centre, mesh.elements[e].normal, 1e-4),
         area: mesh.elements[e].area,
         ranks: (gpu.tree.rank[e], gpu.tree.rank[e] + 1),
         resolution: 32,
@@ -259,10 +256,7 @@ fn batches_in_flight_come_back_in_order() {
 #[test]
 fn cpu_methods_refuse_a_batch() {
     let device = device();
-    let s = scene(
-        closed_cube(2.0, 1, 0),
-        vec![material(0.5, 0.0), material(0.5, 1.0)],
-    );
+    let s = grey_room(0.5);
     let mesh = vkrad::mesh::uniform(&s, 1.0);
     let settings = SolveSettings {
         method: vkrad::solve::FormFactorMethod::RayTrace { rays: 4 },
@@ -307,10 +301,7 @@ fn face_culling_changes_no_form_factor() {
 /// timestamps per pass per shot (and validation stays clean on both).
 #[test]
 fn timestamps_only_when_profiling() {
-    let s = scene(
-        closed_cube(2.0, 1, 0),
-        vec![material(0.5, 0.0), material(0.5, 1.0)],
-    );
+    let s = grey_room(0.5);
     let mesh = vkrad::mesh::uniform(&s, 0.5);
     let settings = SolveSettings {
         hemicube_res: 32,

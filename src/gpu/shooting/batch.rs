@@ -26,6 +26,7 @@ use super::frame::FRAMES;
 use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL};
 use crate::error::{Error, Result};
 use crate::gpu::commands::{barriers, buffer_barrier};
+use crate::gpu::profiler::GpuProfiler;
 
 /// The most shooters one submission takes (parameter slots).
 pub const MAX_BATCH: usize = 8;
@@ -79,7 +80,10 @@ impl ShootingEngine {
         }
         let faces: Vec<[glam::Mat4; 5]> = shooters.iter().map(|s| s.faces).collect();
         let draws = self.cull_faces(frame, &faces)?;
-        self.record_batch(frame, shooters, &draws)?;
+        let mut profiler = self.frames[frame].profiler.take();
+        let recorded = self.record_batch(frame, shooters, &draws, &mut profiler);
+        self.frames[frame].profiler = profiler;
+        recorded?;
         self.frames[frame].cmds.submit()?;
         self.frames[frame].pending = shooters.len();
         self.in_flight.push_back(frame);
@@ -105,17 +109,17 @@ impl ShootingEngine {
     /// Records the batch of frame `frame` (its shooter `k`'s parameters are
     /// in slot `frame * MAX_BATCH + k`).
     fn record_batch(
-        &mut self,
+        &self,
         frame: usize,
         shooters: &[Shooter],
         draws: &[FaceDraws],
+        profiler: &mut Option<GpuProfiler>,
     ) -> Result<()> {
         let hemicubes = shooters
             .iter()
-            .map(|s| self.hemicube(s.resolution).map(|(h, _)| h.clone()))
+            .map(|s| self.hemicube(s.resolution).map(|(h, _)| h))
             .collect::<Result<Vec<_>>>()?;
         let cmd = self.frames[frame].cmds.begin()?;
-        let mut profiler = self.frames[frame].profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
         }
@@ -125,7 +129,7 @@ impl ShootingEngine {
         let indices = self.frames[frame].indices.as_ref().map(|b| b.raw());
         for (k, (shooter, hemicube)) in shooters.iter().zip(&hemicubes).enumerate() {
             let slot = frame * MAX_BATCH + k;
-            self.record_hemicube(cmd, &mut profiler, slot, (draws[k], indices), hemicube);
+            self.record_hemicube(cmd, profiler, slot, (draws[k], indices), hemicube);
             if shooter.region.is_some() {
                 barriers(
                     &self.device,
@@ -150,11 +154,10 @@ impl ShootingEngine {
                 }
             }
             // Reduction atomics or region correction writes -> shooting read.
-            self.record_shooting(cmd, &mut profiler, compute, slot);
+            self.record_shooting(cmd, profiler, compute, slot);
         }
         let readback = self.frames[frame].readback.raw();
-        self.record_unshot_readback(cmd, &mut profiler, readback);
-        self.frames[frame].profiler = profiler;
+        self.record_unshot_readback(cmd, profiler, readback);
         self.frames[frame].cmds.end()
     }
 }
