@@ -59,6 +59,10 @@ pub struct VertexGather {
     /// step that corrects the solved element values with exact form
     /// factors.
     pub source_passes: usize,
+    /// A far cluster of patches whose light is uneven is still taken whole
+    /// when the estimated error of doing so is at most this share of the
+    /// scene's mean radiosity (0: only even clusters are).
+    pub link_error: f32,
 }
 
 impl Default for VertexGather {
@@ -69,6 +73,7 @@ impl Default for VertexGather {
             opening: 0.5,
             uniformity: 1.5,
             source_passes: 8,
+            link_error: LINK_ERROR,
         }
     }
 }
@@ -97,6 +102,16 @@ fn nearest_in_polygon(poly: &[Vec3], normal: Vec3, q: Vec3) -> Vec3 {
 /// value starts to lend the radiosity beside the receiver
 /// ([`Gather::beside`]) instead of its mean; over the second, only that.
 const CLOSE_FF: (f32, f32) = (0.05, 0.2);
+
+/// Default [`VertexGather::link_error`].
+///
+/// Measured at 1,000 element centres against the gather with even
+/// clusters only (`cargo bench --bench gather_cost`, each point gathered
+/// twice for the noise): on `rfield` 0.96 ms against 6.7 ms of CPU a point,
+/// a difference of 1.15% rel. RMS where the two estimates' noise alone
+/// gives 1.16%, mean -0.04%; on `curved.obj` 0.36 against 0.89 ms, mean
+/// -0.05%; the Cornell box unchanged.
+pub const LINK_ERROR: f32 = 0.01;
 
 /// How far inside a light its corner rays aim (a share of the way to its
 /// centre): off the light's own edge, which may touch the ceiling around it.
@@ -334,7 +349,8 @@ impl Gather<'_> {
             if cluster.unseen(at.p, at.n) {
                 continue;
             }
-            if cluster.far_and_even(at.p, settings.uniformity) {
+            let tolerance = settings.link_error * self.clusters.level;
+            if cluster.takes_whole(at.p, at.n, settings.uniformity, tolerance) {
                 gathered += cluster.gather((at.p, at.n, at.patch), &self.sources, &self.occluders);
                 continue;
             }
