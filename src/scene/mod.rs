@@ -8,17 +8,19 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use crate::error::{Error, Result};
 
+mod faces;
 mod mtl;
 mod objscan;
 mod polygon;
+mod repair;
 #[cfg(test)]
 mod tests;
 
-pub use polygon::PLANARITY_TOLERANCE;
+pub use polygon::{PLANARITY_TOLERANCE, SCENE_EPSILON};
 
 /// A diffuse material.
 #[derive(Debug, Clone, PartialEq)]
@@ -279,7 +281,8 @@ type MtlResolver<'a> = dyn Fn(&str) -> Result<(PathBuf, Option<String>)> + 'a;
 fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) -> Result<Scene> {
     let scan = objscan::scan(&source, obj)?;
     let mut warnings = Vec::new();
-    let (mut materials, defined_at) = read_materials(&scan, &source, resolve, &mut warnings)?;
+    let table = read_materials(&scan, &source, resolve, &mut warnings)?;
+    let mut materials = table.materials.clone();
     if obj.trim().is_empty() {
         return Err(Error::scene(
             &source,
@@ -297,8 +300,20 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         ));
     }
 
-    let patches = faces_to_patches(&scan, &source, &mut materials, &mut warnings)?;
-    check_emission(&patches, &materials, &defined_at, &source)?;
+    let mut faces = faces::faces_to_patches(&scan, &source, &mut materials)?;
+    check_emission(&faces, &materials, &table, &source)?;
+    let patches = std::mem::take(&mut faces.patches);
+    // One warning per mirror, glass or shiny material that a face uses.
+    let mut used = vec![false; materials.len()];
+    for p in &patches {
+        used[p.material] = true;
+    }
+    for (m, w) in table.specular.iter().enumerate() {
+        if let (Some(w), true) = (w, used[m]) {
+            warnings.push(w.clone());
+        }
+    }
+    warnings.append(&mut faces.warnings);
 
     let mut scene = Scene {
         name,
@@ -319,8 +334,17 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
     Ok(scene)
 }
 
-/// Materials, and the file and line where each was defined.
-type MaterialTable = (Vec<Material>, Vec<(PathBuf, usize)>);
+/// The materials of the MTL files, where each was defined, and what the
+/// user should hear about each.
+#[derive(Debug, Default)]
+struct MaterialTable {
+    materials: Vec<Material>,
+    defined_at: Vec<(PathBuf, usize)>,
+    /// The warning for a mirror, glass or shiny material.
+    specular: Vec<Option<String>>,
+    /// Why a material without `Ke` looks like a light.
+    light_hint: Vec<Option<String>>,
+}
 
 /// The materials of every `mtllib`, in order, and where each was defined.
 fn read_materials(
@@ -329,8 +353,7 @@ fn read_materials(
     resolve: &MtlResolver,
     warnings: &mut Vec<String>,
 ) -> Result<MaterialTable> {
-    let mut materials: Vec<Material> = Vec::new();
-    let mut defined_at: Vec<(PathBuf, usize)> = Vec::new();
+    let mut table = MaterialTable::default();
     let mut libs_read: Vec<&str> = Vec::new();
     for lib in &scan.mtllibs {
         if libs_read.contains(&lib.name.as_str()) {
@@ -363,8 +386,9 @@ fn read_materials(
             ));
         };
         for entry in mtl::read(&path, &text, warnings)? {
-            if let Some(i) = materials.iter().position(|m| m.name == entry.material.name) {
-                let (first_file, first_line) = &defined_at[i];
+            let same = |m: &Material| m.name == entry.material.name;
+            if let Some(i) = table.materials.iter().position(same) {
+                let (first_file, first_line) = &table.defined_at[i];
                 return Err(Error::scene(
                     &path,
                     entry.line,
@@ -376,105 +400,85 @@ fn read_materials(
                     Some("give each material a unique name"),
                 ));
             }
-            materials.push(entry.material);
-            defined_at.push((path.clone(), entry.line));
+            table.materials.push(entry.material);
+            table.defined_at.push((path.clone(), entry.line));
+            table.specular.push(entry.specular);
+            table.light_hint.push(entry.light_hint);
         }
     }
 
-    Ok((materials, defined_at))
-}
-
-/// One patch per convex planar piece of every face, with its material
-/// (faces before any `usemtl` get a grey default, with a warning).
-fn faces_to_patches(
-    scan: &objscan::ObjScan,
-    source: &Path,
-    materials: &mut Vec<Material>,
-    warnings: &mut Vec<String>,
-) -> Result<Vec<Patch>> {
-    let at = |line: usize| format!("{}:{line}", source.display());
-    // usemtl statement -> material index, resolved on first use by a face.
-    let mut used: Vec<Option<usize>> = vec![None; scan.usemtls.len()];
-    let mut default_material: Option<usize> = None;
-    let mut unassigned: Option<(usize, usize)> = None; // (first line, count)
-    let mut patches = Vec::with_capacity(scan.faces.len());
-    for face in &scan.faces {
-        let material = match face.usemtl {
-            Some(u) => match used[u] {
-                Some(m) => m,
-                None => {
-                    let statement = &scan.usemtls[u];
-                    let Some(m) = materials.iter().position(|m| m.name == statement.name) else {
-                        let libs = if scan.mtllibs.is_empty() {
-                            "no `mtllib` statement names a material library".to_owned()
-                        } else {
-                            let names: Vec<&str> =
-                                scan.mtllibs.iter().map(|l| l.name.as_str()).collect();
-                            format!("it is not in {}", names.join(", "))
-                        };
-                        return Err(Error::scene(
-                            source,
-                            statement.line,
-                            format!(
-                                "unknown material \"{}\" (used by the face on line {}): {libs}",
-                                statement.name, face.line
-                            ),
-                            Some("define it with `newmtl NAME` in the MTL file named by `mtllib`, or fix the name in the `usemtl` line"),
-                        ));
-                    };
-                    used[u] = Some(m);
-                    m
-                }
-            },
-            None => {
-                let entry = unassigned.get_or_insert((face.line, 0));
-                entry.1 += 1;
-                *default_material.get_or_insert_with(|| {
-                    materials.push(Material {
-                        name: "(default)".to_owned(),
-                        reflectance: Vec3::splat(mtl::DEFAULT_REFLECTANCE),
-                        emission: Vec3::ZERO,
-                    });
-                    materials.len() - 1
-                })
-            }
-        };
-        let vertices: Vec<DVec3> = face.vertices.iter().map(|&i| scan.positions[i]).collect();
-        let outcome = polygon::process(&vertices)
-            .map_err(|r| Error::scene(source, face.line, r.what, Some(r.hint)))?;
-        for w in outcome.warnings {
-            warnings.push(format!("{}: {w}", at(face.line)));
-        }
-        for p in outcome.pieces {
-            patches.push(Patch {
-                vertices: p.vertices,
-                normal: p.normal,
-                area: p.area,
-                material,
-                name: face.name.clone(),
-                line: face.line,
-            });
-        }
-    }
-    if let Some((line, count)) = unassigned {
-        warnings.push(format!(
-            "{}: {count} face(s) have no material (no `usemtl` before them); using grey reflectance {}",
-            at(line),
-            mtl::DEFAULT_REFLECTANCE
-        ));
-    }
-
-    Ok(patches)
+    Ok(table)
 }
 
 /// Some face emits, and the total emitted power fits single precision.
+/// Without an emitter the error says why: every face was dropped, the
+/// light's faces were dropped, or which materials look like lights.
 fn check_emission(
-    patches: &[Patch],
+    faces: &faces::Faces,
     materials: &[Material],
-    defined_at: &[(PathBuf, usize)],
+    table: &MaterialTable,
     source: &Path,
 ) -> Result<()> {
+    let patches = &faces.patches;
+    if patches.is_empty() {
+        return Err(Error::scene(
+            source,
+            0,
+            format!(
+                "the scene has no faces left: all {} were dropped ({})",
+                repair::counted(faces.dropped, "face", "faces"),
+                faces.dropped_places
+            ),
+            Some("every face has zero area or repeats another; check the vertex indices and coordinates of the `f` lines"),
+        ));
+    }
     if !patches.iter().any(|p| materials[p.material].is_emitter()) {
+        if let Some(&line) = faces.dropped_emitters.first() {
+            return Err(Error::scene(
+                source,
+                line,
+                format!(
+                    "no emitter: the {} of the emitting material were dropped as zero-area or too small",
+                    repair::counted(faces.dropped_emitters.len(), "face", "faces")
+                ),
+                Some("give the light's face an area: check its vertex indices and coordinates"),
+            ));
+        }
+        let lights: Vec<String> = table
+            .light_hint
+            .iter()
+            .enumerate()
+            .filter_map(|(m, why)| {
+                let why = why.as_ref()?;
+                let (file, line) = &table.defined_at[m];
+                Some(format!(
+                    "\"{}\" ({}:{line}: {why})",
+                    materials[m].name,
+                    file.display()
+                ))
+            })
+            .take(5)
+            .collect();
+        if !lights.is_empty() {
+            let (them, it) = if lights.len() == 1 {
+                ("looks like a light", "it")
+            } else {
+                ("look like lights", "each of them")
+            };
+            return Err(Error::scene(
+                source,
+                0,
+                format!(
+                    "no emitter: no material has a positive Ke, but {} {them}",
+                    lights.join(", ")
+                ),
+                Some(if it == "it" {
+                    "give it an emitted radiance with a `Ke` line after its `newmtl` line, e.g. `Ke 10 10 10`, and make sure the light's faces use it (`usemtl`)"
+                } else {
+                    "give each of them that is a light an emitted radiance with a `Ke` line after its `newmtl` line, e.g. `Ke 10 10 10`, and make sure the light's faces use it (`usemtl`)"
+                }),
+            ));
+        }
         let what = match materials.iter().find(|m| m.is_emitter()) {
             Some(m) => format!(
                 "no emitter: material \"{}\" has a positive Ke but no face uses it",
@@ -504,7 +508,8 @@ fn check_emission(
                 (0, f64::NEG_INFINITY),
                 |b, (i, &x)| if x > b.1 { (i, x) } else { b },
             );
-        let (file, line) = defined_at
+        let (file, line) = table
+            .defined_at
             .get(m)
             .cloned()
             .unwrap_or((source.to_path_buf(), 0));

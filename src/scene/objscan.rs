@@ -3,7 +3,9 @@
 //! Reads the statements vkrad needs (`v`, `f`, `o`, `g`, `usemtl`, `mtllib`
 //! and the `# vkrad camera ...` comment), remembers the 1-based line of each,
 //! and checks their syntax, so that every later error can name a line.
-//! Statements it does not know (`vt`, `vn`, `s`, `l`, ...) are ignored.
+//! Line and point elements (`l`, `p`) are skipped and counted, for a
+//! warning; other statements it does not know (`vt`, `vn`, `s`, ...) are
+//! ignored.
 
 use std::path::Path;
 
@@ -40,6 +42,10 @@ pub(crate) struct ObjScan {
     pub mtllibs: Vec<Named>,
     /// The camera comment and its line.
     pub camera: Option<(Camera, usize)>,
+    /// Lines of the `l` statements, which vkrad does not load.
+    pub line_elements: Vec<usize>,
+    /// Lines of the `p` statements, which vkrad does not load.
+    pub point_elements: Vec<usize>,
 }
 
 const CAMERA_FORMAT: &str =
@@ -120,6 +126,9 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
                 });
             }
             "o" | "g" => name = rest.to_owned(),
+            // Lines and points have no area to light: skipped, and counted.
+            "l" => out.line_elements.push(line_no),
+            "p" => out.point_elements.push(line_no),
             "usemtl" => {
                 if rest.is_empty() {
                     return Err(err(

@@ -270,30 +270,199 @@ fn bad_face_references() {
     assert!(s.patches[0].normal.abs_diff_eq(Vec3::Z, 1e-6));
 }
 
+/// The warning line of the given start, exactly one.
+fn warning<'a>(s: &'a Scene, start: &str) -> &'a str {
+    let w: Vec<&String> = s.warnings.iter().filter(|w| w.starts_with(start)).collect();
+    assert_eq!(w.len(), 1, "{start:?} in {:?}", s.warnings);
+    w[0]
+}
+
 #[test]
-fn degenerate_faces() {
-    let head = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 1 1\nv 2 2 2\nv 1 0 0\n";
-    assert_err_at(
-        load_obj(&format!("{head}f 1 2 3\n")),
-        "t.obj",
-        7,
-        "zero area",
+fn degenerate_faces_are_dropped_with_one_warning() {
+    // Collinear, two distinct vertices, one point, and a sliver 1e-9 wide
+    // (zero next to the scene, whose light is 5 away): all dropped, one
+    // line that counts them and lists the first three.
+    let head =
+        "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 1 1\nv 2 2 2\nv 1 0 0\nv 0.5 1e-9 0\nv 0 1 0\n";
+    let faces = "f 1 2 3\nf 1 4 4\n# c\nf 1 1 1\nf 1 4 5\nf 1 4 6\n";
+    let s = load_obj(&format!("{head}{faces}")).unwrap();
+    let w = warning(&s, "dropped 4 zero-area faces (");
+    assert!(
+        w.starts_with("dropped 4 zero-area faces (t.obj:9, :10, :12, ...): "),
+        "{w}"
     );
-    assert_err_at(
-        load_obj(&format!("{head}f 1 4 4\n")),
-        "t.obj",
-        7,
-        "degenerate",
+    // The good face and the light are left.
+    assert_eq!(s.patches.len(), 2);
+    assert_eq!(s.patches[0].line, 14);
+    // Without the good face: nothing of the floor is left, the light is.
+    let s = load_obj(&format!("{head}f 1 2 3\n")).unwrap();
+    assert_eq!(warning(&s, "dropped 1 zero-area face ("), s.warnings[0]);
+    assert!(s.warnings[0].starts_with("dropped 1 zero-area face (t.obj:9): "));
+    // Only degenerate faces: an error naming them.
+    let obj = "mtllib t.mtl\nusemtl light\nv 0 0 0\nv 1 0 0\nf 1 2 2\nf 2 1 1\n";
+    assert_err_at(load_with(obj, MTL), "t.obj", 0, "dropped (t.obj:5, :6)");
+}
+
+#[test]
+fn coincident_faces_are_dropped_and_opposite_ones_kept() {
+    // A floor quad, the same quad from another starting vertex (with its own
+    // `v` lines, a hair apart), and the quad reversed (its back).
+    let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nf 1 4 3 2\n\
+               v 1 0 1.0000000001\nv 0 0 1\nv 0 0 0\nv 1 0 0\nf -3 -4 -1 -2\n\
+               f 1 2 3 4\n";
+    let s = load_obj(obj).unwrap();
+    let w = warning(&s, "dropped 1 face that coincides");
+    assert!(
+        w.starts_with("dropped 1 face that coincides with another face (t.obj:12 (copy of :7)): "),
+        "{w}"
     );
-    assert_err_at(
-        load_obj(&format!("{head}# c\nf 1 1 1\n")),
-        "t.obj",
-        8,
-        "degenerate",
+    let floor: Vec<&Patch> = s
+        .patches
+        .iter()
+        .filter(|p| !s.material_of(p).is_emitter())
+        .collect();
+    assert_eq!(floor.len(), 2);
+    assert!(floor[0].normal.abs_diff_eq(Vec3::Y, 1e-6));
+    assert!(floor[1].normal.abs_diff_eq(-Vec3::Y, 1e-6));
+    // Of a light and a wall on the same polygon, the light stays.
+    let obj =
+        "mtllib t.mtl\nusemtl white\nv 0 5 0\nv 0 5 1\nv 1 5 0\nf 1 2 3\nusemtl light\nf 2 3 1\n\
+               usemtl white\nv 0 0 0\nv 0 0 1\nv 1 0 0\nf -3 -2 -1\n";
+    let s = load_with(obj, MTL).unwrap();
+    assert!(
+        warning(&s, "dropped 1 face that coincides").contains("(t.obj:6 (copy of :8))"),
+        "{:?}",
+        s.warnings
     );
-    // Bow tie.
-    let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 2 2 0\nv 2 0 0\nv 0 1 0\nf 1 2 3 4\n";
-    assert_err_at(load_obj(obj), "t.obj", 7, "intersects itself");
+    assert_eq!(s.patches.len(), 2);
+    assert!(s.material_of(&s.patches[0]).is_emitter());
+}
+
+#[test]
+fn bow_tie_is_split_into_two_triangles() {
+    // The scan's bow tie: edges 2-3 and 4-1 cross at (1, 0.5, 0).
+    let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 2 0 0\nv 0 1 0\nv 2 1 0\nf 1 2 3 4\n";
+    let s = load_obj(obj).unwrap();
+    let w = warning(
+        &s,
+        "split 1 self-intersecting face into 2 simple pieces (t.obj:7)",
+    );
+    assert!(w.contains("bow tie"), "{w}");
+    let tie: Vec<&Patch> = s.patches.iter().filter(|p| p.line == 7).collect();
+    assert_eq!(tie.len(), 2);
+    let area: f32 = tie.iter().map(|p| p.area).sum();
+    // Two triangles of base 1 and height 1/2... each 0.5 wide at x = 0, 2.
+    assert!((area - 1.0).abs() < 1e-6, "{area}");
+    for p in &tie {
+        assert_eq!(p.vertices.len(), 3);
+        assert!(p
+            .vertices
+            .iter()
+            .any(|v| v.abs_diff_eq(Vec3::new(1.0, 0.5, 0.0), 1e-6)));
+        assert_eq!(p.normal, tie[0].normal);
+    }
+}
+
+#[test]
+fn line_and_point_elements_are_skipped() {
+    let obj =
+        "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2\nl 2 3 1\np 1\nf 1 2 3\n";
+    let s = load_obj(obj).unwrap();
+    assert!(warning(&s, "skipped 2 line elements (`l`) (t.obj:6, :7)").contains("only faces"));
+    assert!(warning(&s, "skipped 1 point element (`p`) (t.obj:8)").contains("only faces"));
+    assert_eq!(s.patches.len(), 2);
+}
+
+#[test]
+fn stray_mtl_lines_warn() {
+    let obj = format!("mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n{LIGHT}");
+    let mtl = "Kd 1 1 1\nnewmtl white\nKd 0.5 0.5 0.5\n  v .1 0 0\nfoo bar\nmap_Kd a.png\nNs 10\nnewmtl light\nKd 0\nKe 1 1 1\n";
+    let s = load_with(&obj, mtl).unwrap();
+    assert_eq!(
+        warning(&s, "ignored 1 statement before"),
+        "ignored 1 statement before the first `newmtl` (t.mtl:1 `Kd`): they belong to no material"
+    );
+    assert_eq!(
+        warning(&s, "ignored 2 unknown"),
+        "ignored 2 unknown statements (t.mtl:4 `v`, :5 `foo`): not MTL statements vkrad knows"
+    );
+    assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
+}
+
+#[test]
+fn specular_materials_warn_once_each() {
+    let obj = format!(
+        "mtllib t.mtl\nusemtl mirror\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl glass\nf 1 3 2\n\
+         usemtl shiny\nv 0 0 1\nf 1 2 -1\nusemtl paint\nf 1 -1 2\n{LIGHT}"
+    );
+    let mtl = "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.95 0.95 0.95\nillum 5\n\
+               newmtl glass\nKd 0.01\nKs 0.3\nTf 0.1 0.1 0.1\nNi 2.5\nillum 7\n\
+               newmtl shiny\nKd 0.2\nKs 0.6\nillum 2\n\
+               newmtl paint\nKd 0.8\nKs 0.5\nNi 1.5\nillum 2\nTf 1 1 1\nd 1\n\
+               newmtl unused\nKs 1\nillum 3\n\
+               newmtl light\nKd 0\nKe 1 1 1\n";
+    let s = load_with(&obj, mtl).unwrap();
+    let w: Vec<&String> = s.warnings.iter().filter(|w| w.contains("\" is ")).collect();
+    assert_eq!(w.len(), 3, "{:?}", s.warnings);
+    assert_eq!(
+        w[0],
+        "t.mtl:1: material \"mirror\" is a mirror (illum 5, Ks 0.95): vkrad treats it as opaque and diffuse with its Kd 0.01: with so dark a Kd it will look almost black"
+    );
+    assert!(
+        w[1].starts_with("t.mtl:5: material \"glass\" is transparent (illum 7, Tf 0.1, Ni 2.5, Ks 0.3): vkrad treats it as opaque and diffuse with its Kd 0.01"),
+        "{}",
+        w[1]
+    );
+    assert!(
+        w[2].starts_with("t.mtl:11: material \"shiny\" is shiny (Ks 0.6): vkrad treats it as opaque and diffuse with its Kd 0.2"),
+        "{}",
+        w[2]
+    );
+    // And nothing else but the unused material's missing Kd.
+    assert_eq!(s.warnings.len(), 4, "{:?}", s.warnings);
+}
+
+#[test]
+fn no_emitter_names_the_materials_that_look_like_lights() {
+    let obj = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl Ceiling_Lamp\nf 1 3 2\n";
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nKa 1 1 1\nnewmtl Ceiling_Lamp\nKd 0.8\n";
+    let (at, what, hint) = scene_err(load_with(obj, mtl));
+    assert_eq!(at.line, 0);
+    assert_eq!(
+        what,
+        "no emitter: no material has a positive Ke, but \"Ceiling_Lamp\" (t.mtl:4: its name) looks like a light"
+    );
+    assert!(hint.unwrap().contains("`Ke` line after its `newmtl` line"));
+    // Ambient brighter than diffuse, and illum 0, are hints too.
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\nKa 4 4 4\nnewmtl Ceiling_Lamp\nKd 0.8\n";
+    let obj = obj.replace("Ceiling_Lamp", "flat");
+    let (_, what, _) = scene_err(load_with(
+        &obj,
+        &mtl.replace("Ceiling_Lamp", "flat\nillum 0"),
+    ));
+    assert!(
+        what.contains("\"white\" (t.mtl:1: Ka 4 is brighter than its Kd)"),
+        "{what}"
+    );
+    assert!(
+        what.contains("\"flat\" (t.mtl:4: illum 0, an unlit constant colour)"),
+        "{what}"
+    );
+    assert!(what.ends_with("look like lights"), "{what}");
+}
+
+#[test]
+fn tolerances_follow_the_scene_size() {
+    // A millimetre-sized scene: a face 1e-5 across is a face there...
+    let small = "mtllib t.mtl\nusemtl white\nv 0 0 0\nv 1e-5 0 0\nv 0 1e-5 0\nf 1 2 3\n\
+                 usemtl light\nv 0 1e-3 0\nv 1e-3 1e-3 0\nv 0 1e-3 1e-3\nf -3 -2 -1\n";
+    let s = load_with(small, MTL).unwrap();
+    assert_eq!(s.patches.len(), 2, "{:?}", s.warnings);
+    // ...and a speck in a 100 m hall.
+    let big = small.replace("1e-3", "100");
+    let s = load_with(&big, MTL).unwrap();
+    assert_eq!(s.patches.len(), 1);
+    assert!(warning(&s, "dropped 1 zero-area face (t.obj:6)").contains("1e-6 of the scene's size"));
 }
 
 #[test]
@@ -303,7 +472,9 @@ fn non_planar_quad_is_split_with_warning() {
     let s = load_obj(obj).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
     assert!(
-        s.warnings[0].starts_with("t.obj:8: non-planar quad split into 2 triangles (deviation "),
+        s.warnings[0].starts_with(
+            "split 1 non-planar quad into 2 triangles (t.obj:8; largest deviation from a plane 0.07"
+        ),
         "{}",
         s.warnings[0]
     );
@@ -329,8 +500,10 @@ fn concave_polygon_is_split_with_warning() {
     let obj = "mtllib t.mtl\nusemtl white\ng ell\nv 0 0 0\nv 2 0 0\nv 2 1 0\nv 1 1 0\nv 1 2 0.0005\nv 0 2 0\nf 1 2 3 4 5 6\n";
     let s = load_obj(obj).unwrap();
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
-    assert!(s.warnings[0]
-        .starts_with("t.obj:10: concave polygon with 6 vertices split into 4 triangles"));
+    assert_eq!(
+        s.warnings[0],
+        "split 1 concave polygon into 4 triangles (t.obj:10)"
+    );
     let ell: Vec<&Patch> = s.patches.iter().filter(|p| p.name == "ell").collect();
     assert_eq!(ell.len(), 4);
     let area: f32 = ell.iter().map(|p| p.area).sum();
@@ -480,4 +653,82 @@ fn error_message_reads_well() {
     assert!(msg.starts_with(
         "t.obj:6: vertex index 4 is out of range: 3 vertices are defined above this line\n  hint: "
     ));
+}
+
+/// A public scene under `../shared/scenes`, or `None` (with a note) where
+/// this checkout has none.
+fn public_scene(rel: &str) -> Option<PathBuf> {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes")
+        .join(rel);
+    if path.is_file() {
+        Some(path)
+    } else {
+        println!("skipped: {} is not here", path.display());
+        None
+    }
+}
+
+#[test]
+fn mcguire_cornell_box_loads_with_its_two_copies_dropped() {
+    let Some(path) = public_scene("mcguire/CornellBox-Original.obj") else {
+        return;
+    };
+    let s = load(&path).unwrap();
+    for w in &s.warnings {
+        println!("warning   {w}");
+    }
+    // Each box's bottom face is written as a copy of one of its sides.
+    let w = warning(&s, "dropped 2 faces that coincide with another face (");
+    assert!(
+        w.contains("CornellBox-Original.obj:107 (copy of :93), :155 (copy of :148))"),
+        "{w}"
+    );
+    // 18 faces, 2 copies dropped; one non-planar wall split in two.
+    assert_eq!(s.patches.len(), 18 - 2 + 1);
+    assert!(warning(&s, "split 1 non-planar quad into 2 triangles (").contains("Original.obj:62;"));
+    assert_eq!(s.warnings.len(), 3, "{:?}", s.warnings);
+    // The stray `v .1 0 0` in the MTL is a warning, not an error.
+    assert!(warning(&s, "ignored 1 unknown statement (").contains("`v`"));
+    // No material there is specular; the light emits.
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("\" is ")),
+        "{:?}",
+        s.warnings
+    );
+    assert_eq!(
+        s.patches
+            .iter()
+            .filter(|p| s.material_of(p).is_emitter())
+            .count(),
+        1
+    );
+}
+
+#[test]
+fn mcguire_sphere_box_warns_about_its_mirror_and_glass() {
+    let Some(path) = public_scene("mcguire/CornellBox-Sphere.obj") else {
+        return;
+    };
+    let s = load(&path).unwrap();
+    for w in &s.warnings {
+        println!("warning   {w}");
+    }
+    let about = |needle: &str| -> Vec<&String> {
+        s.warnings.iter().filter(|w| w.contains(needle)).collect()
+    };
+    let mirror = about("CornellBox-Sphere.mtl:15: material \"leftSphere\" is a mirror (illum 5");
+    assert_eq!(mirror.len(), 1, "{:?}", s.warnings);
+    assert!(mirror[0].contains("treats it as opaque and diffuse with its Kd 0.01"));
+    let glass = about("CornellBox-Sphere.mtl:23: material \"rightSphere\" is transparent (illum 7");
+    assert_eq!(glass.len(), 1, "{:?}", s.warnings);
+    // Its two stray `v` lines, and nothing about its 2,188 faces.
+    assert!(about("ignored 2 unknown statements (")[0].contains(":21 `v`, :31 `v`"));
+    assert_eq!(s.warnings.len(), 3, "{:?}", s.warnings);
+    // The light's `Tf 1 1 1` with `d 1` is opaque: no warning for it.
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("\"light\" is")),
+        "{:?}",
+        s.warnings
+    );
 }

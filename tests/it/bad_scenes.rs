@@ -9,7 +9,8 @@
 //!   `hint:` where the user has something to do, and the folder holds only
 //!   the inputs afterwards;
 //! - a documented repair: exit 0, a `warning` line in stdout saying what was
-//!   done, and a whole 32x32 PNG;
+//!   done (one line per kind of repair, with a count and the first few
+//!   `scene.obj:LINE`), and a whole 32x32 PNG;
 //! - or it simply works.
 //!
 //! Never `panicked` in stderr, never a partial or temporary file, and each run
@@ -376,35 +377,94 @@ fn cases() -> Vec<Case> {
         error(&[&at(11), "single precision"]),
     ));
 
-    // Degenerate faces.
+    // Degenerate faces: dropped, counted in one warning line.
     c.push(obj_case(
         "zero-area face (one index repeated)",
         replace_line(11, "f 1 1 1"),
-        error(&[&at(11), "all its vertices are the same point"]),
+        repair(&[&format!("dropped 1 zero-area face ({})", at(11))]),
     ));
     let (obj, line) = append_face(&[[0., 0.5, 0.], [0.5, 0.5, 0.], [1., 0.5, 0.]]);
     c.push(obj_case(
         "collinear triangle",
         obj,
-        error(&[&at(line), "collinear"]),
+        repair(&[&format!("dropped 1 zero-area face ({})", at(line))]),
     ));
     let (obj, line) = append_face(&[[0., 0.5, 0.], [0.3, 0.5, 0.], [0.6, 0.5, 0.], [1., 0.5, 0.]]);
     c.push(obj_case(
         "collinear quad",
         obj,
-        error(&[&at(line), "zero area"]),
+        repair(&[&format!("dropped 1 zero-area face ({})", at(line))]),
+    ));
+    c.push(obj_case(
+        "many zero-area faces: one line, a count and the first three",
+        append("usemtl white\nf 1 1 2\nf 2 2 3\nf 3 3 4\nf 4 4 1\nf 1 2 1\n"),
+        repair(&[&format!(
+            "dropped 5 zero-area faces ({}, :{}, :{}, ...)",
+            at(APPENDED + 1),
+            APPENDED + 2,
+            APPENDED + 3
+        )]),
+    ));
+    c.push(obj_case(
+        "every face zero-area",
+        "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nusemtl light\nf 1 2 2\nf 1 1 1\n",
+        error(&["scene.obj", "no faces left", "dropped (scene.obj:5, :6)"]),
+    ));
+    c.push(obj_case(
+        "zero-area face with an index out of range (still an error)",
+        replace_line(11, "f 1 1 99"),
+        error(&[&at(11), "vertex index 99 is out of range"]),
+    ));
+    c.push(obj_case(
+        "the floor written twice (another starting vertex)",
+        append("usemtl white\nf 3 4 1 2\n"),
+        repair(&[&format!(
+            "dropped 1 face that coincides with another face ({} (copy of :11))",
+            at(APPENDED + 1)
+        )]),
+    ));
+    c.push(obj_case(
+        "the floor and its back (opposite copies: a two-sided wall, kept)",
+        append("usemtl white\nf 4 3 2 1\n"),
+        works(&["3 patches"]),
     ));
     let (obj, line) = append_face(&[[0., 0.5, 0.], [1., 0.5, 1.], [1., 0.5, 0.], [0., 0.5, 1.]]);
     c.push(obj_case(
         "symmetric bow tie (parts cancel)",
         obj,
-        error(&[&at(line), "crosses itself"]),
+        repair(&[
+            &at(line),
+            "split 1 self-intersecting face into 2 simple pieces",
+        ]),
     ));
     let (obj, line) = append_face(&[[0., 0.5, 0.], [1., 0.5, 1.], [1., 0.5, 0.], [0., 0.5, 0.5]]);
     c.push(obj_case(
         "lopsided bow tie (self-intersecting)",
         obj,
-        error(&[&at(line), "intersects itself"]),
+        repair(&[
+            &at(line),
+            "split 1 self-intersecting face into 2 simple pieces",
+        ]),
+    ));
+    let star: Vec<[f64; 3]> = (0..5)
+        .map(|k| {
+            let a = -((2 * k) as f64) * std::f64::consts::TAU / 5.0;
+            [0.5 + 0.4 * a.cos(), 0.5, 0.5 + 0.4 * a.sin()]
+        })
+        .collect();
+    let (obj, line) = append_face(&star);
+    c.push(obj_case(
+        "pentagram (its parts overlap: no one reading)",
+        obj,
+        error(&[&at(line), "intersects itself", "overlap"]),
+    ));
+    c.push(obj_case(
+        "line and point elements",
+        append("l 1 2 3\np 5\n"),
+        repair(&[
+            &format!("skipped 1 line element (`l`) ({})", at(APPENDED)),
+            &format!("skipped 1 point element (`p`) ({})", at(APPENDED + 1)),
+        ]),
     ));
 
     // Duplicate vertices.
@@ -416,24 +476,27 @@ fn cases() -> Vec<Case> {
     c.push(obj_case(
         "face revisits a vertex",
         replace_line(11, "f 1 2 3 2 4"),
-        error(&[&at(11), "same vertex twice"]),
+        repair(&[
+            &at(11),
+            "split 1 self-intersecting face into 1 simple piece",
+        ]),
     ));
     c.push(obj_case(
-        "two `v` lines at one position in a quad",
-        append("v 1 0 1\nusemtl white\nf 1 2 3 -1 4\n"),
+        "two `v` lines at one position in a quad (the floor's back)",
+        append("v 1 0 1\nusemtl white\nf 4 -1 3 2 1\n"),
         repair(&[&at(APPENDED + 2), "removed 1 repeated vertex"]),
     ));
     c.push(obj_case(
         "two `v` lines at one position in a triangle",
         append("v 0 0 1\nusemtl white\nf 1 2 -1\n"),
-        error(&[&at(APPENDED + 2), "only 2 distinct vertices"]),
+        repair(&[&format!("dropped 1 zero-area face ({})", at(APPENDED + 2))]),
     ));
 
     // Non-planar and concave polygons: split with a warning.
     c.push(obj_case(
         "non-planar quad",
         replace_line(4, "v 1 0.2 1"),
-        repair(&[&at(11), "non-planar quad split into 2 triangles"]),
+        repair(&[&at(11), "split 1 non-planar quad into 2 triangles"]),
     ));
     let (obj, line) = append_face(&[
         [0.1, 0.5, 0.1],
@@ -446,10 +509,7 @@ fn cases() -> Vec<Case> {
     c.push(obj_case(
         "concave L-shaped polygon",
         obj,
-        repair(&[
-            &at(line),
-            "concave polygon with 6 vertices split into 4 triangles",
-        ]),
+        repair(&[&at(line), "split 1 concave polygon into 4 triangles"]),
     ));
     let (obj, line) = append_face(&ngon(100_000));
     c.push(obj_case(
@@ -529,10 +589,47 @@ fn cases() -> Vec<Case> {
         error(&[&at(12), "unknown material \"lamp\""]),
     ));
     c.push(Case {
-        name: "no emitter".into(),
+        name: "no emitter (the material named light has no Ke)".into(),
         obj: GOOD_OBJ.as_bytes().to_vec(),
         mtl: Some(MTL.replace("Ke 5 5 5", "").into_bytes()),
-        expect: error(&["scene.obj", "no emitter"]),
+        expect: error(&[
+            "scene.obj",
+            "no emitter",
+            "\"light\" (scene.mtl:3: its name) looks like a light",
+            "`Ke`",
+        ]),
+    });
+    c.push(Case {
+        name: "no emitter, no material that looks like a light".into(),
+        obj: GOOD_OBJ
+            .replace("usemtl light", "usemtl white")
+            .into_bytes(),
+        mtl: Some(b"newmtl white\nKd 0.5 0.5 0.5\n".to_vec()),
+        expect: error(&["scene.obj", "no emitter: no material has a positive Ke"]),
+    });
+    c.push(Case {
+        name: "stray lines in the MTL file".into(),
+        obj: GOOD_OBJ.as_bytes().to_vec(),
+        mtl: Some(format!("Kd 1 1 1\n{MTL}  v .1 0 0\nwhat is this\n").into_bytes()),
+        expect: repair(&[
+            "ignored 1 statement before the first `newmtl` (scene.mtl:1 `Kd`)",
+            "ignored 2 unknown statements (scene.mtl:7 `v`, :8 `what`)",
+        ]),
+    });
+    c.push(Case {
+        name: "a mirror material".into(),
+        obj: GOOD_OBJ.as_bytes().to_vec(),
+        mtl: Some(
+            MTL.replace(
+                "Kd 0.5 0.5 0.5\nnewmtl light",
+                "Kd 0.1 0.1 0.1\nKs 0.9 0.9 0.9\nillum 5\nnewmtl light",
+            )
+            .into_bytes(),
+        ),
+        expect: repair(&[
+            "scene.mtl:1: material \"white\" is a mirror (illum 5, Ks 0.9)",
+            "treats it as opaque and diffuse with its Kd 0.1",
+        ]),
     });
 
     // Emitters that light nothing, and a scene that never converges.
