@@ -19,9 +19,13 @@ use crate::output::tonemap::auto_exposure;
 use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
+use crate::solve::progressive::passes_needed;
 use crate::solve::solution::add_ambient;
-use crate::solve::vertex_gather::refine::{split_points, Checked, DisplayRefinement};
-use crate::solve::vertex_gather::{FinalGather, VertexCache, VertexGather};
+use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
+pub use crate::solve::vertex_gather::display::{
+    DISPLAY_DISCONTINUITY_MAX_PATCHES, DISPLAY_REFINEMENTS,
+};
+use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
 
 /// Everything `vkrad SCENE` can be asked to do.
@@ -164,6 +168,13 @@ pub struct Report {
     pub wall: Vec<(&'static str, f64)>,
     /// GPU time per pass (timestamps) across solve and render.
     pub gpu_times: StageTimes,
+    /// The stage an interrupt stopped (`"solve"`, `"gather"`, `"display
+    /// refinement"`), or `None`. Interrupted in the gather, the image shows
+    /// the solver's own vertex values on the solved mesh.
+    pub interrupted: Option<&'static str>,
+    /// The Jacobi passes the final gather ran (at most the job's; fewer
+    /// where the solve's residual needed fewer).
+    pub gather_passes: Option<usize>,
 }
 
 const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
@@ -269,136 +280,14 @@ impl Report {
                 "wall_s": wall,
                 "passes": passes,
             },
+            "interrupted_in": self.interrupted,
+            "gather_passes": self.gather_passes,
             "outputs": {
                 "image": self.output.display().to_string(),
                 "mesh": self.export.as_ref().map(|p| p.display().to_string()),
             },
         })
     }
-}
-
-/// Above this many patches the display mesh is uniform whatever the job
-/// asks: the discontinuity mesher's cost grows with the blocker pairs, and
-/// on the 23,802-patch `rfield` it takes longer than the solve.
-pub const DISPLAY_DISCONTINUITY_MAX_PATCHES: usize = 5000;
-
-/// Default refinement passes of a discontinuity display mesh.
-pub const DISPLAY_REFINEMENTS: usize = 2;
-
-/// The finer mesh the final gather shades: the display mesher at the
-/// display edge, unless both are the solve's (a coarser mesh for the
-/// display is never built). A discontinuity display mesh that cannot be
-/// built (too many patches, or a mesh that fails its check) falls back to
-/// a uniform one, with a warning.
-fn display_mesh(
-    job: &Job,
-    scene: &Scene,
-    device: &Arc<Device>,
-    builder: &mut MeshBuilder,
-    warnings: &mut Vec<String>,
-) -> Result<Option<DisplayMesh>> {
-    let solved = *builder.settings();
-    // Half the scene's default edge: finer than a default solve, and no
-    // finer than a solve the user made finer (its cost grows with the
-    // display vertices).
-    let edge = job
-        .display_edge
-        .unwrap_or(0.5 * mesh::default_max_edge(scene))
-        .min(solved.max_edge);
-    let mut mesher = job.display_mesher.unwrap_or(solved.mesher);
-    if mesher != Mesher::Uniform
-        && solved.mesher == Mesher::Uniform
-        && scene.patches.len() > DISPLAY_DISCONTINUITY_MAX_PATCHES
-    {
-        warnings.push(format!(
-            "{} patches: the display mesh is uniform (a discontinuity display mesh is built up to {DISPLAY_DISCONTINUITY_MAX_PATCHES} patches; --mesh discontinuity meshes shadows anyway)",
-            scene.patches.len()
-        ));
-        mesher = Mesher::Uniform;
-    }
-    if mesher == solved.mesher && edge >= solved.max_edge {
-        return Ok(None);
-    }
-    let build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
-        let mesh = if mesher == solved.mesher {
-            builder.build_finer(edge)?.0
-        } else {
-            let settings = MeshSettings {
-                mesher,
-                max_edge: edge,
-                ..solved
-            };
-            MeshBuilder::new(device, scene, settings)?.build(&[])?.0
-        };
-        if job.check_mesh {
-            check_mesh(&mesh, scene, mesher)?;
-        }
-        Ok(DisplayMesh { mesh, mesher, edge })
-    };
-    match build(mesher, builder) {
-        Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
-            warnings.push(format!(
-                "the discontinuity display mesh failed its check ({why}); the image shows a uniform mesh"
-            ));
-            build(Mesher::Uniform, builder).map(Some)
-        }
-        other => other.map(Some),
-    }
-}
-
-/// The display mesh, its mesher and its maximum edge.
-struct DisplayMesh {
-    mesh: Mesh,
-    mesher: Mesher,
-    edge: f32,
-}
-
-/// Gathers the display mesh's vertices, then (discontinuity display
-/// meshes only) splits its elements where [`split_points`] finds the
-/// Gouraud image wrong and gathers the new vertices.
-fn gather_display(
-    scene: &Scene,
-    gather: &FinalGather,
-    display: &mut DisplayMesh,
-    passes: usize,
-) -> Vec<[f32; 3]> {
-    let refinement = DisplayRefinement {
-        passes,
-        suspect: 0.25,
-        tolerance: 0.05,
-        floor: 0.05,
-        // Penumbrae are resolved to an eighth of the display edge.
-        min_edge: display.edge / 8.0,
-    };
-    let mut cache = VertexCache::default();
-    let mut values = gather.at_vertices(&display.mesh, &mut cache);
-    // A uniform display mesh has shadow and contact lines inside its
-    // elements: split at centroids, they show as stars (seen around the
-    // light of `curved.obj`).
-    if display.mesher == Mesher::Uniform {
-        return values;
-    }
-    let mut checked = Checked::default();
-    for _ in 0..refinement.passes {
-        let split = split_points(
-            scene,
-            &display.mesh,
-            &values,
-            gather,
-            &refinement,
-            &mut checked,
-        );
-        if split.is_empty() {
-            break;
-        }
-        // Split in place (one triangle into three at its centroid): the
-        // mesh stays conforming, no vertex moves, and only the centroids
-        // are gathered. (Re-meshing with the centroids inserted made the
-        // discontinuity mesher leave regions unsubdivided.)
-        display.mesh = display.mesh.split_at_centroids(&split);
-        values = gather.at_vertices(&display.mesh, &mut cache);
-    }
-    values
 }
 
 /// Writes `report` (JSON) atomically.
@@ -412,12 +301,28 @@ pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
     })
 }
 
-/// Runs the whole job. `on_progress` sees every shot and may return false
-/// to stop early (the best solution so far is still rendered and written).
+/// What a running job reports, for a progress display.
+#[derive(Debug, Clone, Copy)]
+pub enum Update<'a> {
+    /// A batch of shots of the solve.
+    Shot(&'a Progress),
+    /// A stage after the solve: `done` of `total` points (the total may
+    /// grow as the stage learns more, e.g. a display refinement pass).
+    Stage {
+        stage: &'static str,
+        done: usize,
+        total: usize,
+    },
+}
+
+/// Runs the whole job. `on_progress` sees every batch of shots and every
+/// chunk of gathered points, and may return false to stop early (the best
+/// result so far is still rendered and written, and
+/// [`Report::interrupted`] says where it stopped).
 pub fn run(
     job: &Job,
     device: Option<Arc<Device>>,
-    on_progress: impl FnMut(&Progress) -> bool,
+    on_progress: impl FnMut(&Update) -> bool,
 ) -> Result<Report> {
     let t = Instant::now();
     let scene = scene::load_scene_arg(&job.scene)?;
@@ -446,7 +351,7 @@ pub fn run_scene(
     scene: Scene,
     load_seconds: f64,
     device: Option<Arc<Device>>,
-    on_progress: impl FnMut(&Progress) -> bool,
+    on_progress: impl FnMut(&Update) -> bool,
 ) -> Result<Report> {
     let mut wall = vec![("load", load_seconds)];
     let t = Instant::now();
@@ -482,7 +387,8 @@ pub fn run_scene(
     wall.push(("mesh", t.elapsed().as_secs_f64()));
 
     let t = Instant::now();
-    let mut on_progress = on_progress;
+    let mut on_update = on_progress;
+    let mut on_progress = |p: &Progress| on_update(&Update::Shot(p));
     // The final gather's Jacobi passes finish the light's bounces: the
     // solve may stop as much earlier (its stop rule counts them).
     let solve_settings = SolveSettings {
@@ -546,9 +452,14 @@ pub fn run_scene(
     // converged to a tolerance), the ambient term stands in for it.
     let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&scene, &mesh));
     let t = Instant::now();
+    let request = DisplayRequest {
+        edge: job.display_edge,
+        mesher: job.display_mesher,
+        check: job.check_mesh,
+    };
     let mut display = match &job.final_gather {
-        Some(_) if job.adaptive == 0 => {
-            display_mesh(job, &scene, &device, &mut builder, &mut warnings)?
+        Some(_) if job.adaptive == 0 && !solution.interrupted => {
+            display_mesh(&request, &scene, &device, &mut builder, &mut warnings)?
         }
         _ => None,
     };
@@ -556,8 +467,29 @@ pub fn run_scene(
         wall.push(("display mesh", t.elapsed().as_secs_f64()));
     }
     let t = Instant::now();
-    let shown = match &job.final_gather {
-        Some(settings) => {
+    let mut interrupted = solution.interrupted.then_some("solve");
+    // The solver's own vertex values: without a final gather, and when
+    // one is interrupted before it has a value at every vertex.
+    let solver_values = || {
+        let mut shown = solution.vertex_radiosity(&mesh);
+        if let Some(a) = ambient {
+            add_ambient(&scene, &mesh, &mut shown, a);
+        }
+        shown
+    };
+    // The passes the solve's stop rule counted that its residual does not
+    // need (a solve that stopped at its first batch, in an open scene).
+    let final_gather = job.final_gather.map(|g| VertexGather {
+        source_passes: match (solve_settings.unshot_share, solution.return_ratio) {
+            (Some(target), Some(r)) => {
+                passes_needed(solution.unshot_share, r, target, g.source_passes)
+            }
+            _ => g.source_passes,
+        },
+        ..g
+    });
+    let shown = match &final_gather {
+        Some(settings) if interrupted.is_none() => {
             // Gathered from the elements as shown: the ambient term joins
             // their light before it is gathered.
             let mut sources = solution.radiosity.clone();
@@ -568,18 +500,58 @@ pub fn run_scene(
                 }
             }
             let tree = ShooterTree::new(&scene, &mesh);
-            let gather = FinalGather::new(&scene, &mesh, &tree, &sources, settings);
-            match display.as_mut() {
-                Some(display) => gather_display(&scene, &gather, display, job.display_refinements),
-                None => gather.at_vertices(&mesh, &mut VertexCache::default()),
+            let mut tick = |done: usize, total: usize| {
+                on_update(&Update::Stage {
+                    stage: "gather",
+                    done,
+                    total,
+                })
+            };
+            let vertices = display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len();
+            let mut meter = Meter::new(
+                settings.source_passes * mesh.elements.len() + vertices,
+                &mut tick,
+            );
+            let shaded =
+                match FinalGather::metered(&scene, &mesh, &tree, &sources, settings, &mut meter) {
+                    None => Shaded::Nothing,
+                    Some(gather) => match display.as_mut() {
+                        Some(display) => {
+                            meter.total -= vertices;
+                            shade_display(
+                                &scene,
+                                &gather,
+                                display,
+                                job.display_refinements,
+                                &mut meter,
+                            )
+                        }
+                        None => match gather.at_vertices_metered(
+                            &mesh,
+                            &mut VertexCache::default(),
+                            &mut meter,
+                        ) {
+                            Some(values) => Shaded::Done(values),
+                            None => Shaded::Nothing,
+                        },
+                    },
+                };
+            match shaded {
+                Shaded::Done(values) => values,
+                Shaded::Partial(values) => {
+                    interrupted = Some("display refinement");
+                    values
+                }
+                Shaded::Nothing => {
+                    interrupted = Some("gather");
+                    display = None;
+                    solver_values()
+                }
             }
         }
-        None => {
-            let mut shown = solution.vertex_radiosity(&mesh);
-            if let Some(a) = ambient {
-                add_ambient(&scene, &mesh, &mut shown, a);
-            }
-            shown
+        _ => {
+            display = None;
+            solver_values()
         }
     };
     if job.final_gather.is_some() {
@@ -616,7 +588,7 @@ pub fn run_scene(
         scene,
         mesh,
         display_mesh,
-        gathered: job.final_gather.is_some(),
+        gathered: job.final_gather.is_some() && interrupted != Some("gather"),
         vertex_radiosity: shown,
         max_edge,
         mesh_report,
@@ -632,5 +604,7 @@ pub fn run_scene(
         warnings,
         wall,
         gpu_times,
+        interrupted,
+        gather_passes: final_gather.map(|g| g.source_passes),
     })
 }

@@ -67,14 +67,28 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             errors.join(" -> ")
         );
     }
+    match r.interrupted {
+        Some("gather") => println!(
+            "  PARTIAL   interrupted in the final gather: the image shows the solver's own vertex values on the solved mesh"
+        ),
+        Some("display refinement") => println!(
+            "  PARTIAL   interrupted in the display refinement: the image shows the display mesh as its last finished pass left it"
+        ),
+        _ => {}
+    }
+    let passes = match r.gather_passes {
+        Some(1) => ", after 1 Jacobi pass at the element centres".to_string(),
+        Some(n) => format!(", after {n} Jacobi passes at the element centres"),
+        None => String::new(),
+    };
     match &r.display_mesh {
         Some(d) => println!(
-            "  display   {} elements, {} vertices, each vertex gathered from the solved elements (--display-mesh, --display-edge)",
+            "  display   {} elements, {} vertices, each vertex gathered from the solved elements{passes} (--display-mesh, --display-edge)",
             d.elements.len(),
             d.vertices.len()
         ),
         None if r.gathered => println!(
-            "  display   the solved mesh, each vertex gathered from the solved elements"
+            "  display   the solved mesh, each vertex gathered from the solved elements{passes}"
         ),
         None => {}
     }

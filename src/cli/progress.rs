@@ -4,6 +4,15 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+use vkrad::app::Update;
+
+/// A 24-character bar filled to `share` (0..1).
+fn bar(share: f64) -> String {
+    const WIDTH: usize = 24;
+    let filled = ((share * WIDTH as f64) as usize).min(WIDTH);
+    format!("{}{}", "#".repeat(filled), ".".repeat(WIDTH - filled))
+}
+
 /// Set by Ctrl-C: the solve stops after the current shot and the best image
 /// so far is still written. A second Ctrl-C exits at once.
 pub(crate) static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -14,7 +23,7 @@ pub(crate) fn install_interrupt_handler() {
             eprintln!("\ninterrupted twice: exiting without writing");
             std::process::exit(130);
         }
-        eprintln!("\ninterrupted: finishing the current shot, then writing the partial result (Ctrl-C again to abort)");
+        eprintln!("\ninterrupted: finishing the current step (a batch of shots or a chunk of the gather), then writing the partial result (Ctrl-C again to abort)");
     });
     if let Err(e) = result {
         eprintln!("warning: cannot install the Ctrl-C handler: {e}");
@@ -40,6 +49,8 @@ pub(crate) struct ProgressLine {
     last_draw: Instant,
     /// (shots, ln residual, seconds) some time ago, for the decay rate.
     anchor: Option<(usize, f64, f64)>,
+    /// The stage after the solve being shown, and when it began.
+    stage: Option<(&'static str, Instant)>,
 }
 
 impl ProgressLine {
@@ -51,10 +62,47 @@ impl ProgressLine {
             start: now,
             last_draw: now,
             anchor: None,
+            stage: None,
         }
     }
 
-    pub(crate) fn update(&mut self, p: &vkrad::solve::Progress) {
+    pub(crate) fn update(&mut self, update: &Update) {
+        match *update {
+            Update::Shot(p) => self.shot(p),
+            Update::Stage { stage, done, total } => self.stage(stage, done, total),
+        }
+    }
+
+    /// A stage after the solve: points done of a known total, so the ETA
+    /// is linear in them.
+    fn stage(&mut self, stage: &'static str, done: usize, total: usize) {
+        let now = Instant::now();
+        let began = match self.stage {
+            Some((name, began)) if name == stage => began,
+            _ => {
+                self.stage = Some((stage, now));
+                now
+            }
+        };
+        if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
+            return;
+        }
+        self.last_draw = now;
+        let done_share = (done as f64 / total.max(1) as f64).clamp(0.0, 1.0);
+        let t = began.elapsed().as_secs_f64();
+        let eta = if done_share > 0.0 && t > 1.0 {
+            format!("{:.0} s", t * (1.0 - done_share) / done_share)
+        } else {
+            "--".into()
+        };
+        eprint!(
+            "\r  [{}] {stage} {done:>9} / {total} points  {:.0} points/s  ETA {eta}    ",
+            bar(done_share),
+            done as f64 / t.max(1e-9),
+        );
+    }
+
+    fn shot(&mut self, p: &vkrad::solve::Progress) {
         if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
             return;
         }
@@ -78,13 +126,10 @@ impl ProgressLine {
         if self.anchor.is_none_or(|(_, _, t0)| t - t0 > 5.0) {
             self.anchor = Some((p.shots, ln_r, t));
         }
-        let width = 24;
-        let filled = (done * width as f64) as usize;
         let eta = eta.map_or("--".into(), |e| format!("{e:.0} s"));
         eprint!(
-            "\r  [{}{}] shot {:>7}  residual {:.2e}  {:.0} shots/s  ETA {eta}    ",
-            "#".repeat(filled),
-            ".".repeat(width - filled),
+            "\r  [{}] shot {:>7}  residual {:.2e}  {:.0} shots/s  ETA {eta}    ",
+            bar(done),
             p.shots,
             p.residual,
             p.shots as f64 / t.max(1e-9),

@@ -154,6 +154,23 @@ pub fn share_after_passes(share: f64, return_ratio: f64, passes: usize) -> f64 {
     share * return_ratio.clamp(0.0, 0.999).powi(passes.min(64) as i32)
 }
 
+/// How many of `planned` Jacobi passes a solve that stopped at `share`
+/// (its unshot share after those passes, [`share_after_passes`]) needs to
+/// bring what is missing under `target`: each pass it can do without
+/// multiplies the share by 1 / r. An open scene (r small) whose solve
+/// stopped at its first batch needs few (the 23,802-patch `rfield`: 4 of
+/// 8), a closed one all. At least one of them is kept.
+pub fn passes_needed(share: f64, return_ratio: f64, target: f64, planned: usize) -> usize {
+    let r = return_ratio.clamp(1e-6, 0.999);
+    if share.is_nan() || share <= 0.0 || target <= 0.0 || share >= target {
+        return planned;
+    }
+    let spare = ((target / share).ln() / (1.0 / r).ln()).floor();
+    // One pass at least: besides the bounces it corrects the solve's own
+    // element values (coarse elements, hemicube aliasing).
+    planned.saturating_sub(spare as usize).max(planned.min(1))
+}
+
 /// The shooters per submission [`solve`] takes: [`MAX_BATCH`] with the GPU
 /// hemicube; one with the CPU methods (their form factors are computed per
 /// shooter on the CPU, so there is no submission to share).
@@ -390,4 +407,23 @@ pub fn solve_batched(
         times: shot.times,
         wall_seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_solve_far_below_its_target_needs_fewer_passes() {
+        // r = 0.25: each pass not run multiplies the share by 4.
+        assert_eq!(passes_needed(0.005 / 20.0, 0.25, 0.005, 8), 6);
+        // Just under the target: every planned pass is needed.
+        assert_eq!(passes_needed(0.0049, 0.25, 0.005, 8), 8);
+        // Not converged, or nothing known: as planned.
+        assert_eq!(passes_needed(0.01, 0.25, 0.005, 8), 8);
+        assert_eq!(passes_needed(f64::NAN, 0.25, 0.005, 8), 8);
+        // One at least, however far below.
+        assert_eq!(passes_needed(1e-30, 0.25, 0.005, 8), 1);
+        assert_eq!(passes_needed(1e-30, 0.25, 0.005, 0), 0);
+    }
 }

@@ -22,4 +22,5 @@ mod layout;
 mod seams;
 mod shaders;
 mod smooth;
+mod stages;
 mod visibility;

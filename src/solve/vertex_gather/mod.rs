@@ -177,6 +177,37 @@ pub struct VertexCache {
     values: HashMap<(u32, [i64; 3]), [f32; 3]>,
 }
 
+/// Counts the points gathered, for a progress display: `tick(done,
+/// total)` is called between chunks of points and returns false to stop
+/// (an interrupt), which makes the metered calls return `None`.
+pub struct Meter<'a> {
+    pub done: usize,
+    pub total: usize,
+    tick: &'a mut dyn FnMut(usize, usize) -> bool,
+}
+
+impl<'a> Meter<'a> {
+    pub fn new(total: usize, tick: &'a mut dyn FnMut(usize, usize) -> bool) -> Self {
+        Meter {
+            done: 0,
+            total,
+            tick,
+        }
+    }
+
+    /// Counts `points` more; false: stop.
+    fn advance(&mut self, points: usize) -> bool {
+        self.done += points;
+        self.total = self.total.max(self.done);
+        (self.tick)(self.done, self.total)
+    }
+}
+
+/// Points gathered between two progress ticks: a fraction of a second on
+/// two cores at the cost per point of a large scene (about 1 ms), and
+/// enough to keep every core busy.
+const CHUNK: usize = 1024;
+
 /// The solved elements made ready to be gathered from: sources undiluted,
 /// corrected by the Jacobi passes.
 pub struct FinalGather<'a> {
@@ -196,6 +227,28 @@ impl<'a> FinalGather<'a> {
         radiosity: &[[f32; 3]],
         settings: &VertexGather,
     ) -> Self {
+        let mut never = |_: usize, _: usize| true;
+        Self::metered(
+            scene,
+            solved,
+            tree,
+            radiosity,
+            settings,
+            &mut Meter::new(0, &mut never),
+        )
+        .expect("a meter that never stops")
+    }
+
+    /// [`FinalGather::new`], counting the passes' points on `meter`;
+    /// `None` when it stops them.
+    pub fn metered(
+        scene: &'a Scene,
+        solved: &Mesh,
+        tree: &'a ShooterTree,
+        radiosity: &[[f32; 3]],
+        settings: &VertexGather,
+        meter: &mut Meter,
+    ) -> Option<Self> {
         assert_eq!(radiosity.len(), solved.elements.len());
         let occluders = Occluders::new(scene);
         // A solved element partly under a box has its light spread over its
@@ -226,14 +279,14 @@ impl<'a> FinalGather<'a> {
         // Jacobi step with exact form factors: it corrects the solve's
         // element values (biased where its form factors are, on coarse
         // elements) by the share rho that comes back.
+        let frames: Vec<Frame> = solved
+            .elements
+            .iter()
+            .zip(&exposed)
+            .map(|(e, part)| (part.centre, e.normal, e.patch))
+            .collect();
         for _ in 0..settings.source_passes {
-            let frames: Vec<Frame> = solved
-                .elements
-                .iter()
-                .zip(&exposed)
-                .map(|(e, part)| (part.centre, e.normal, e.patch))
-                .collect();
-            let mut corrected = gather.at_points(&frames);
+            let mut corrected = gather.at_points(&frames, meter)?;
             for (b, part) in corrected.iter_mut().zip(&exposed) {
                 if part.share <= 0.0 {
                     *b = [0.0; 3];
@@ -242,7 +295,7 @@ impl<'a> FinalGather<'a> {
             gather.sources = sources(scene, solved, tree, &corrected, &exposed);
             gather.clusters.relight(&gather.sources);
         }
-        FinalGather { gather }
+        Some(FinalGather { gather })
     }
 
     /// Radiosity at every vertex of `display` (any mesh of the same scene;
@@ -251,6 +304,19 @@ impl<'a> FinalGather<'a> {
     /// value. Places found in `cache` are not gathered again; new ones are
     /// added to it.
     pub fn at_vertices(&self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
+        let mut never = |_: usize, _: usize| true;
+        self.at_vertices_metered(display, cache, &mut Meter::new(0, &mut never))
+            .expect("a meter that never stops")
+    }
+
+    /// [`FinalGather::at_vertices`], counting its points on `meter`; `None`
+    /// when it stops them (the cache keeps what was gathered).
+    pub fn at_vertices_metered(
+        &self,
+        display: &Mesh,
+        cache: &mut VertexCache,
+        meter: &mut Meter,
+    ) -> Option<Vec<[f32; 3]>> {
         let scene = self.gather.scene;
         let (points, _, patches) = vertex_frames(scene, display);
         let groups = smooth_groups(scene, display, CREASE_DEGREES);
@@ -274,24 +340,43 @@ impl<'a> FinalGather<'a> {
             &vertices,
             &mut frames,
         );
-        let vals = self.gather.at_points(&frames);
+        // What the groups leave out of the count (the meter was told of
+        // every vertex).
+        meter.total = meter
+            .total
+            .saturating_sub(display.vertices.len() - frames.len());
+        let vals = self.gather.at_points(&frames, meter)?;
         for (&g, value) in todo.iter().zip(vals) {
             cache.values.insert(key(groups.members[g].0), value);
         }
-        groups
-            .group
-            .iter()
-            .map(|&g| match groups.members.get(g as usize) {
-                Some(&(v, _)) => cache.values[&key(v)],
-                None => [0.0; 3],
-            })
-            .collect()
+        Some(
+            groups
+                .group
+                .iter()
+                .map(|&g| match groups.members.get(g as usize) {
+                    Some(&(v, _)) => cache.values[&key(v)],
+                    None => [0.0; 3],
+                })
+                .collect(),
+        )
     }
 
     /// Radiosity at arbitrary points `(point, normal, patch)` on the front
     /// of their patch.
     pub fn at_points(&self, frames: &[(Vec3, Vec3, u32)]) -> Vec<[f32; 3]> {
-        self.gather.at_points(frames)
+        let mut never = |_: usize, _: usize| true;
+        self.gather
+            .at_points(frames, &mut Meter::new(0, &mut never))
+            .expect("a meter that never stops")
+    }
+
+    /// [`FinalGather::at_points`], counting them on `meter`.
+    pub fn at_points_metered(
+        &self,
+        frames: &[(Vec3, Vec3, u32)],
+        meter: &mut Meter,
+    ) -> Option<Vec<[f32; 3]>> {
+        self.gather.at_points(frames, meter)
     }
 }
 
@@ -309,25 +394,37 @@ struct Gather<'a> {
 }
 
 impl Gather<'_> {
-    /// Radiosity at every frame.
-    fn at_points(&self, frames: &[Frame]) -> Vec<[f32; 3]> {
-        frames
-            .par_iter()
-            .enumerate()
-            .map(|(k, &(p, n, patch))| {
-                let Some(surface) = self.scene.patches.get(patch as usize) else {
-                    return [0.0; 3];
-                };
-                let material = self.scene.material_of(surface);
-                let mut gathered = Vec3::ZERO;
-                if material.reflectance.max_element() > 0.0 {
-                    let at = Receiver { p, n, patch };
-                    let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
-                    gathered = self.at_point(&at, true, &mut rng);
-                }
-                (material.emission * PI + material.reflectance * gathered).to_array()
-            })
-            .collect()
+    /// Radiosity at every frame, in chunks counted on `meter`; `None` when
+    /// it stops them.
+    fn at_points(&self, frames: &[Frame], meter: &mut Meter) -> Option<Vec<[f32; 3]>> {
+        let mut out = Vec::with_capacity(frames.len());
+        for (c, chunk) in frames.chunks(CHUNK).enumerate() {
+            out.par_extend(
+                chunk
+                    .par_iter()
+                    .enumerate()
+                    .map(|(i, frame)| self.at_frame(c * CHUNK + i, frame)),
+            );
+            if !meter.advance(chunk.len()) {
+                return None;
+            }
+        }
+        Some(out)
+    }
+
+    /// Radiosity at frame number `k` (which seeds its rays).
+    fn at_frame(&self, k: usize, &(p, n, patch): &Frame) -> [f32; 3] {
+        let Some(surface) = self.scene.patches.get(patch as usize) else {
+            return [0.0; 3];
+        };
+        let material = self.scene.material_of(surface);
+        let mut gathered = Vec3::ZERO;
+        if material.reflectance.max_element() > 0.0 {
+            let at = Receiver { p, n, patch };
+            let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
+            gathered = self.at_point(&at, true, &mut rng);
+        }
+        (material.emission * PI + material.reflectance * gathered).to_array()
     }
 
     /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
@@ -680,6 +777,7 @@ fn fan_point((fan, cdf): (&[(Vec3, Vec3, Vec3)], &[f32]), u: f32, w: f32) -> Vec
 }
 
 mod clusters;
+pub mod display;
 mod exposure;
 pub mod refine;
 #[cfg(test)]

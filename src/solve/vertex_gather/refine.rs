@@ -15,7 +15,7 @@ use std::collections::HashSet;
 
 use glam::Vec3;
 
-use super::FinalGather;
+use super::{FinalGather, Meter};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
@@ -53,7 +53,8 @@ pub struct Checked {
 }
 
 /// The display elements to split at their centroids (indices), worst
-/// first, at most one per four elements.
+/// first, at most one per four elements; the centroids gathered are
+/// counted on `meter` (`None`: it stopped them).
 pub fn split_points(
     scene: &Scene,
     display: &Mesh,
@@ -61,7 +62,8 @@ pub fn split_points(
     gather: &FinalGather,
     settings: &DisplayRefinement,
     checked: &mut Checked,
-) -> Vec<usize> {
+    meter: &mut Meter,
+) -> Option<Vec<usize>> {
     let place = place_cells(scene);
     // The lowest and highest corner level.
     let corner_range = |k: usize| -> (f32, f32) {
@@ -91,7 +93,7 @@ pub fn split_points(
         e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
     };
     let Some(mean) = mean_receiver_radiosity(scene, display, values) else {
-        return Vec::new();
+        return Some(Vec::new());
     };
     let floor = settings.floor * mean;
     let suspects: Vec<usize> = (0..display.elements.len())
@@ -110,7 +112,8 @@ pub fn split_points(
             (e.centre, e.normal, e.patch)
         })
         .collect();
-    let at_centres = gather.at_points(&frames);
+    meter.total += frames.len();
+    let at_centres = gather.at_points_metered(&frames, meter)?;
     let mut split: Vec<(f32, usize)> = suspects
         .iter()
         .zip(at_centres)
@@ -124,5 +127,5 @@ pub fn split_points(
         .collect();
     split.sort_by(|a, b| b.0.total_cmp(&a.0));
     split.truncate(display.elements.len() / 4);
-    split.into_iter().map(|(_, k)| k).collect()
+    Some(split.into_iter().map(|(_, k)| k).collect())
 }

@@ -306,7 +306,18 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         min_edge: 0.05,
     };
     let mut checked = refine::Checked::default();
-    let points = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
+    let mut never = |_: usize, _: usize| true;
+    let mut meter = Meter::new(0, &mut never);
+    let points = refine::split_points(
+        &s,
+        &display,
+        &values,
+        &gather,
+        &refinement,
+        &mut checked,
+        &mut meter,
+    )
+    .unwrap();
     assert!(!points.is_empty(), "the shadow's elements are split");
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
     for &k in &points {
@@ -328,7 +339,16 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         );
     }
     // Looked at once: a second pass on the same mesh gathers nothing new.
-    let again = refine::split_points(&s, &display, &values, &gather, &refinement, &mut checked);
+    let again = refine::split_points(
+        &s,
+        &display,
+        &values,
+        &gather,
+        &refinement,
+        &mut checked,
+        &mut meter,
+    )
+    .unwrap();
     assert!(again.is_empty());
 }
 

@@ -1,0 +1,58 @@
+//! The stages after the solve report their progress, and an interrupt in
+//! any of them still writes the best result there is, marked.
+
+use vkrad::app::{run_scene, Job, Update};
+
+use crate::common;
+
+fn job(name: &str) -> (Job, std::path::PathBuf) {
+    let dir = std::env::temp_dir().join(format!("vkrad-stages-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut job = Job::new("simple");
+    job.output = Some(dir.join("out.png"));
+    job.size = (48, 48);
+    (job, dir)
+}
+
+#[test]
+fn the_gather_reports_its_points_up_to_its_total() {
+    let device = common::device();
+    let (job, dir) = job("progress");
+    let scene = vkrad::scene::load_scene_arg("simple").unwrap();
+    let mut seen: Vec<(usize, usize)> = Vec::new();
+    let report = run_scene(&job, scene, 0.0, Some(device.clone()), |u| {
+        if let Update::Stage { stage, done, total } = *u {
+            assert_eq!(stage, "gather");
+            seen.push((done, total));
+        }
+        true
+    })
+    .unwrap();
+    assert!(report.interrupted.is_none());
+    assert!(seen.len() >= 2, "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[1].0 > w[0].0), "{seen:?}");
+    assert!(seen.iter().all(|&(d, t)| d <= t), "{seen:?}");
+    let &(done, total) = seen.last().unwrap();
+    assert_eq!(done, total, "the last tick is the whole stage");
+    common::assert_validation_clean(&device);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_interrupt_in_the_gather_writes_the_solvers_values_marked_partial() {
+    let device = common::device();
+    let (job, dir) = job("interrupt");
+    let scene = vkrad::scene::load_scene_arg("simple").unwrap();
+    let report = run_scene(&job, scene, 0.0, Some(device.clone()), |u| {
+        !matches!(u, Update::Stage { .. })
+    })
+    .unwrap();
+    assert_eq!(report.interrupted, Some("gather"));
+    assert!(!report.gathered);
+    assert!(report.display_mesh.is_none(), "the solved mesh is shown");
+    assert_eq!(report.vertex_radiosity.len(), report.mesh.vertices.len());
+    assert!(report.vertex_radiosity.iter().any(|b| b[0] > 0.0));
+    assert!(dir.join("out.png").exists());
+    common::assert_validation_clean(&device);
+    std::fs::remove_dir_all(&dir).ok();
+}
