@@ -4,7 +4,9 @@
 //! sources, clusters) and the CPU milliseconds per point (wall time x
 //! threads), which should stay about flat as the scene grows.
 //!
-//!     cargo bench --bench gather_cost -- [--points N] [--link-error F] [SCENE...]
+//!     cargo bench --bench gather_cost -- [--points N] [--link-error F] [--out FILE] [SCENE...]
+//!
+//! Writes the rows to `--out` (default `bench/gather_cost.json`).
 //!
 //! SCENE: built-in names or .obj paths (default: cornell, vise,
 //! scenes/curved.obj, rfield).
@@ -20,13 +22,15 @@ use vkrad::solve::{solve, ShooterTree, SolveSettings};
 
 fn main() {
     let points: usize = arg("--points", 2000);
+    let out: String = arg("--out", "bench/gather_cost.json".to_string());
+    let mut rows = Vec::new();
     let link_error: f32 = arg("--link-error", VertexGather::default().link_error);
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut scenes: Vec<String> = Vec::new();
     let mut k = 0;
     while k < args.len() {
         match args[k].as_str() {
-            "--points" | "--device" | "--link-error" => k += 1,
+            "--points" | "--device" | "--link-error" | "--out" => k += 1,
             a if a.starts_with("--") => {}
             a => scenes.push(a.to_string()),
         }
@@ -122,5 +126,25 @@ fn main() {
             ms(runs[1].1),
             100.0 * bias_sum / total.max(1e-30),
         );
+        rows.push(serde_json::json!({
+            "scene": scene.name,
+            "patches": scene.patches.len(),
+            "elements": mesh.elements.len(),
+            "points": m,
+            "setup_s": runs[0].0,
+            "ms_per_point": ms(runs[0].1),
+            "ms_per_point_even_clusters_only": ms(runs[1].1),
+            "rel_rms_between_pct": diff,
+            "noise_one_estimate_pct": noise,
+            "mean_difference_pct": 100.0 * bias_sum / total.max(1e-30),
+        }));
     }
+    let json = serde_json::json!({
+        "device": device.info.name,
+        "threads": threads,
+        "link_error": link_error,
+        "rows": rows,
+    });
+    std::fs::write(&out, serde_json::to_string_pretty(&json).expect("json") + "\n").expect("write the rows");
+    println!("wrote {out}");
 }

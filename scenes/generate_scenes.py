@@ -8,6 +8,7 @@ as a CAD or Blender export gives them). Python 3 standard library only; run
 from anywhere:
 
     python3 scenes/generate_scenes.py
+    python3 scenes/generate_scenes.py --scaling /tmp/vkrad-scaling   # fields of 1 to 1,500 letters
 
 Every face is planar and convex, counter-clockwise seen from outside (its
 front), with no degenerate faces.
@@ -218,7 +219,7 @@ def vise_scene():
     return obj.faces
 
 
-def rfield_scene(letters=175, columns=14):
+def rfield_scene(letters=175, columns=14, folder=HERE, name="rfield"):
     """The thesis's scale test (its parallel-performance "R" scene had
     23,872 polygons): 175 letters R (136 faces each) in rows on a floor
     under one light, 175 x 136 + 2 = 23,802 polygons."""
@@ -240,8 +241,9 @@ def rfield_scene(letters=175, columns=14):
         r_letter(obj, dx * (k % columns) + 0.6, dz * (k // columns) + 1.5)
     obj.group("light", "light")
     light(obj, width / 2, 30.0, depth / 2, 4.0)
-    obj.write(os.path.join(HERE, "rfield.obj"))
-    letter_mtl("rfield.mtl")
+    obj.lines = [line.replace("mtllib rfield.mtl", "mtllib %s.mtl" % name) for line in obj.lines]
+    obj.write(os.path.join(folder, name + ".obj"))
+    letter_mtl(os.path.join(folder, name + ".mtl"))
     return obj.faces
 
 
@@ -295,7 +297,22 @@ def curved_scene():
     return obj.faces
 
 
+def scaling_scenes(folder):
+    """Fields of letters R from 1 to 1,500 letters (138 to 204,002
+    polygons), for the scaling benches; written to `folder`, not into the
+    crate."""
+    os.makedirs(folder, exist_ok=True)
+    for letters in (1, 12, 50, 175, 700, 1500):
+        columns = max(1, int(round(math.sqrt(letters * 0.75))))
+        name = "rfield-%d" % letters
+        print("%s: %d faces" % (name, rfield_scene(letters, columns, folder, name)))
+
+
 if __name__ == "__main__":
+    import sys
+    if len(sys.argv) == 3 and sys.argv[1] == "--scaling":
+        scaling_scenes(sys.argv[2])
+        sys.exit(0)
     print("curved: %d faces" % curved_scene())
     print("r: %d faces" % r_scene())
     print("rfield: %d faces" % rfield_scene())

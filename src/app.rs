@@ -81,7 +81,13 @@ pub struct Job {
     pub exposure: Option<f32>,
 }
 
+/// The default `--stop-error`: the share of the radiosity shown that the
+/// light still unshot may be when the solve stops.
+pub const DEFAULT_STOP_ERROR: f64 = 0.005;
+
 impl Job {
+    /// The job `vkrad SCENE` runs: every default here is the command
+    /// line's, which only overrides them.
     pub fn new(scene: impl Into<String>) -> Self {
         Job {
             scene: scene.into(),
@@ -101,7 +107,13 @@ impl Job {
             adaptive: 0,
             tolerance: 0.02,
             max_elements: None,
-            solve: SolveSettings::default(),
+            solve: SolveSettings {
+                // The stop error alone decides (the residual's floor is
+                // far below it), as `vkrad SCENE` does.
+                converge: 1e-6,
+                unshot_share: Some(DEFAULT_STOP_ERROR),
+                ..SolveSettings::default()
+            },
             camera: CameraOverride::default(),
             size: (800, 800),
             exposure: None,

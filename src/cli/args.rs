@@ -161,7 +161,7 @@ pub(crate) struct RenderArgs {
     /// radiosity the image shows: the error stopping leaves in the written
     /// mesh (the image's ambient term makes up most of it). The default
     /// needs no tuning; --converge overrides it.
-    #[arg(long, default_value_t = 0.005, value_name = "FRACTION")]
+    #[arg(long, default_value_t = vkrad::app::DEFAULT_STOP_ERROR, value_name = "FRACTION")]
     pub(crate) stop_error: f64,
     /// Stop instead when the unshot power is below this fraction of the
     /// emitted power.

@@ -158,7 +158,7 @@ pub fn share_after_passes(share: f64, return_ratio: f64, passes: usize) -> f64 {
 /// (its unshot share after those passes, [`share_after_passes`]) needs to
 /// bring what is missing under `target`: each pass it can do without
 /// multiplies the share by 1 / r. An open scene (r small) whose solve
-/// stopped at its first batch needs few (the 23,802-patch `rfield`: 4 of
+/// stopped at its first batch needs few (the 23,802-patch `rfield`: 5 of
 /// 8), a closed one all. At least one of them is kept.
 pub fn passes_needed(share: f64, return_ratio: f64, target: f64, planned: usize) -> usize {
     let r = return_ratio.clamp(1e-6, 0.999);
