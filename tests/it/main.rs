@@ -15,6 +15,7 @@ mod energy;
 mod failure_modes;
 mod formfactor_exact;
 mod formfactor_hemicube;
+mod first_view;
 mod fuzz_loader;
 mod golden;
 mod hierarchy;
