@@ -353,6 +353,9 @@ mod tests {
         broken.elements[1].corners[1] = 99;
         assert!(export_mesh(&dir.join("m.obj"), &broken, &radiosity(), 1.0).is_err());
         assert!(export_mesh(&dir.join("missing/m.ply"), &mesh, &radiosity(), 1.0).is_err());
+        // glTF accessors cannot be empty: an empty mesh is refused.
+        let err = export_mesh(&dir.join("m.glb"), &Mesh::default(), &[], 1.0).unwrap_err();
+        assert!(err.to_string().contains("no elements"), "{err}");
         assert!(std::fs::read_dir(&dir).unwrap().next().is_none());
         std::fs::remove_dir_all(&dir).unwrap();
     }
