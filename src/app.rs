@@ -190,7 +190,7 @@ pub struct Report {
 }
 
 const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
-const MESH_EXTENSIONS: &[&str] = &["ply", "obj"];
+const MESH_EXTENSIONS: &[&str] = &["ply", "obj", "glb", "gltf"];
 
 /// Rejects an output path before any long work: unknown extension or a
 /// folder that does not exist.

@@ -72,20 +72,259 @@ pub fn default_camera(scene: &Scene) -> Camera {
     scene.camera.unwrap_or_else(|| frame_bounds(scene))
 }
 
-/// Looks at the bounding box's centre from the front-right and above, far
-/// enough that the bounding sphere fits the vertical field of view.
+/// Field of view of the automatic cameras outside the scene's box.
+const FOV_OUTSIDE_DEG: f32 = 45.0;
+/// Field of view of the automatic cameras within it: the walls are near.
+const FOV_INSIDE_DEG: f32 = 60.0;
+/// Sample rays per side of the square image a candidate view is judged by.
+const VIEW_RAYS: usize = 32;
+/// The share of the surface seen that may face away before the classic
+/// framing gives way to the best scored one.
+const MAX_BACK_SHARE: f32 = 0.05;
+
+/// An automatic camera that shows the scene's surfaces from their front.
+///
+/// The classic framing ([`classic_framing`]: from the front-right and
+/// above, the bounding sphere filling the view) is kept where nearly all it
+/// sees faces it: objects and open scenes. Otherwise (an enclosed scene,
+/// seen from outside, shows the backs of its walls, which are culled) the
+/// candidates of [`candidate_cameras`] are judged by [`judge_view`] and the
+/// one that sees the most front-facing area wins.
 pub fn frame_bounds(scene: &Scene) -> Camera {
+    let candidates = candidate_cameras(scene);
+    let sight = Sight::new(scene);
+    let classic = candidates[0];
+    if sight.judge(&classic).back_share() <= MAX_BACK_SHARE {
+        return classic;
+    }
+    use rayon::prelude::*;
+    let scores: Vec<f32> = candidates
+        .par_iter()
+        .map(|c| sight.judge(c).score())
+        .collect();
+    let best = scores
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map_or(0, |(i, _)| i);
+    if scores[best] > 0.0 {
+        candidates[best]
+    } else {
+        classic
+    }
+}
+
+/// Looks at the bounding box's centre from the front-right and above, far
+/// enough that the bounding sphere fits the vertical field of view (the
+/// automatic camera before scenes were judged, and still the first choice).
+pub fn classic_framing(scene: &Scene) -> Camera {
+    outside(scene, Vec3::new(0.35, 0.45, 1.0))
+}
+
+/// The box's centre seen from `direction`, the bounding sphere filling the
+/// view.
+fn outside(scene: &Scene, direction: Vec3) -> Camera {
     let (lo, hi) = scene.bounds();
     let centre = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-6);
-    let fov_y_deg: f32 = 45.0;
-    let distance = radius / (fov_y_deg.to_radians() * 0.5).sin();
-    let direction = Vec3::new(0.35, 0.45, 1.0).normalize();
+    let distance = radius / (FOV_OUTSIDE_DEG.to_radians() * 0.5).sin();
+    let eye = centre + direction.normalize() * distance;
     Camera {
-        eye: centre + direction * distance,
+        eye,
         look_at: centre,
-        up: Vec3::Y,
-        fov_y_deg,
+        up: up_for(centre - eye),
+        fov_y_deg: FOV_OUTSIDE_DEG,
+    }
+}
+
+/// +y, unless the view is (nearly) vertical: then the image's top is the
+/// scene's back (-z) looking down, its front looking up.
+fn up_for(forward: Vec3) -> Vec3 {
+    let f = forward.normalize_or_zero();
+    if f.y.abs() > 0.99 {
+        Vec3::new(0.0, 0.0, -f.y.signum())
+    } else {
+        Vec3::Y
+    }
+}
+
+/// The views [`frame_bounds`] chooses from, [`classic_framing`] first:
+/// from outside the bounding box along each axis and along 16 diagonals
+/// (the classic direction mirrored and turned about y, above and below),
+/// and from within: the box's centre and a point near each face, each
+/// looking across the box along an axis.
+pub fn candidate_cameras(scene: &Scene) -> Vec<Camera> {
+    let mut out = vec![classic_framing(scene)];
+    let axes = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z];
+    out.extend(axes.iter().map(|&a| outside(scene, a)));
+    for sy in [1.0, -1.0] {
+        for sx in [1.0, -1.0] {
+            for sz in [1.0, -1.0] {
+                out.push(outside(scene, Vec3::new(0.35 * sx, 0.45 * sy, sz)));
+                out.push(outside(scene, Vec3::new(sx, 0.45 * sy, 0.35 * sz)));
+            }
+        }
+    }
+    let (lo, hi) = scene.bounds();
+    let centre = (lo + hi) * 0.5;
+    let half = (hi - lo) * 0.5;
+    for a in axes {
+        // How far the box reaches along `a`; a flat box has no inside there.
+        let reach = half.dot(a.abs());
+        if reach <= 1e-3 * half.length() {
+            continue;
+        }
+        let far_wall = centre + a * reach;
+        for eye in [centre, centre - a * (0.8 * reach)] {
+            out.push(Camera {
+                eye,
+                look_at: far_wall,
+                up: up_for(a),
+                fov_y_deg: FOV_INSIDE_DEG,
+            });
+        }
+    }
+    out
+}
+
+/// What a camera sees of the scene, judged by [`VIEW_RAYS`]^2 rays through
+/// a square image, each stopping at the first patch it meets (from either
+/// side: a wall seen from behind hides what lies beyond it).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct ViewJudgement {
+    /// Rays whose first patch faces the eye.
+    pub front_rays: u32,
+    /// Rays whose first patch faces away (the renderer culls it).
+    pub back_rays: u32,
+    /// Sum of area x cos over the front-facing surface seen (each ray
+    /// stands for t^2 times its solid angle), less the same for the surface
+    /// facing away: how much of the scene the view shows, at any distance.
+    pub area: f32,
+}
+
+impl ViewJudgement {
+    /// The share of the rays that hit something whose patch faces away.
+    pub fn back_share(&self) -> f32 {
+        let hit = self.front_rays + self.back_rays;
+        if hit == 0 {
+            1.0
+        } else {
+            self.back_rays as f32 / hit as f32
+        }
+    }
+
+    /// The area seen from the front, less what faces away; a view that sees
+    /// mostly backs scores below zero.
+    pub fn score(&self) -> f32 {
+        if self.back_share() > 0.5 {
+            self.area.min(0.0)
+        } else {
+            self.area
+        }
+    }
+}
+
+/// [`ViewJudgement`] of `camera` on `scene` (builds a BVH over the scene:
+/// for many cameras, [`frame_bounds`] builds it once).
+pub fn judge_view(scene: &Scene, camera: &Camera) -> ViewJudgement {
+    Sight::new(scene).judge(camera)
+}
+
+/// The scene's patches, fan-triangulated, in a BVH for the rays that judge
+/// candidate views.
+struct Sight {
+    bvh: Option<obvhs::cwbvh::CwBvh>,
+    triangles: Vec<obvhs::triangle::Triangle>,
+    /// The patch normal of each triangle.
+    normals: Vec<Vec3>,
+    /// Hits nearer than this to the eye are ignored.
+    near: f32,
+}
+
+impl Sight {
+    fn new(scene: &Scene) -> Self {
+        let mut triangles = Vec::new();
+        let mut normals = Vec::new();
+        for patch in &scene.patches {
+            let v = &patch.vertices;
+            for k in 1..v.len().saturating_sub(1) {
+                triangles.push(obvhs::triangle::Triangle {
+                    v0: v[0].to_array().into(),
+                    v1: v[k].to_array().into(),
+                    v2: v[k + 1].to_array().into(),
+                });
+                normals.push(patch.normal);
+            }
+        }
+        let bvh = (!triangles.is_empty()).then(|| {
+            let mut build_time = std::time::Duration::ZERO;
+            obvhs::cwbvh::builder::build_cwbvh_from_tris(
+                &triangles,
+                obvhs::BvhBuildParams::fast_build(),
+                &mut build_time,
+            )
+        });
+        let extent = scene.extent();
+        let near = if extent.is_finite() && extent > 0.0 {
+            1e-5 * extent
+        } else {
+            1e-6
+        };
+        Sight {
+            bvh,
+            triangles,
+            normals,
+            near,
+        }
+    }
+
+    fn judge(&self, camera: &Camera) -> ViewJudgement {
+        let mut out = ViewJudgement::default();
+        let Some(bvh) = &self.bvh else {
+            return out;
+        };
+        let forward = (camera.look_at - camera.eye).normalize_or_zero();
+        let right = forward.cross(camera.up).normalize_or_zero();
+        let up = right.cross(forward);
+        if forward == Vec3::ZERO || right == Vec3::ZERO {
+            return out;
+        }
+        let tan = (camera.fov_y_deg.to_radians() * 0.5).tan();
+        // The side of one sample's square on the image plane at distance 1.
+        let step = 2.0 * tan / VIEW_RAYS as f32;
+        for j in 0..VIEW_RAYS {
+            for i in 0..VIEW_RAYS {
+                let x = ((i as f32 + 0.5) * step) - tan;
+                let y = ((j as f32 + 0.5) * step) - tan;
+                let d = forward + x * right + y * up;
+                // Solid angle of the sample: its square, foreshortened.
+                let solid_angle = step * step / d.length().powi(3);
+                let d = d.normalize();
+                let ray = obvhs::ray::Ray::new(
+                    camera.eye.to_array().into(),
+                    d.to_array().into(),
+                    self.near,
+                    f32::INFINITY,
+                );
+                let mut hit = obvhs::ray::RayHit::none();
+                let found = bvh.ray_traverse(ray, &mut hit, |ray, id| {
+                    self.triangles[bvh.primitive_indices[id] as usize].intersect(ray)
+                });
+                if !found {
+                    continue;
+                }
+                let tri = bvh.primitive_indices[hit.primitive_id as usize] as usize;
+                let seen = hit.t * hit.t * solid_angle;
+                if self.normals[tri].dot(d) < 0.0 {
+                    out.front_rays += 1;
+                    out.area += seen;
+                } else {
+                    out.back_rays += 1;
+                    out.area -= seen;
+                }
+            }
+        }
+        out
     }
 }
 

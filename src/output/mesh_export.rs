@@ -1,21 +1,25 @@
 //! Exporting the solved mesh with per-vertex radiosity: ASCII PLY or OBJ with
-//! vertex colours, chosen by the file extension.
+//! vertex colours, or glTF 2.0 (`.glb`, `.gltf`: [`super::gltf`]), chosen by
+//! the file extension.
 
 use std::io::Write;
 use std::path::Path;
 
 use super::atomic::write_atomically;
+use super::gltf;
 use super::tonemap::tonemap;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 
 /// The mesh extensions [`export_mesh`] understands.
-pub const SUPPORTED_MESH_EXTENSIONS: &[&str] = &["ply", "obj"];
+pub const SUPPORTED_MESH_EXTENSIONS: &[&str] = &["ply", "obj", "glb", "gltf"];
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum MeshFormat {
     Ply,
     Obj,
+    Glb,
+    Gltf,
 }
 
 fn mesh_format(path: &Path) -> Result<MeshFormat> {
@@ -25,10 +29,12 @@ fn mesh_format(path: &Path) -> Result<MeshFormat> {
     match ext.as_deref() {
         Some("ply") => Ok(MeshFormat::Ply),
         Some("obj") => Ok(MeshFormat::Obj),
+        Some("glb") => Ok(MeshFormat::Glb),
+        Some("gltf") => Ok(MeshFormat::Gltf),
         other => Err(Error::Output {
             path: path.to_path_buf(),
             what: format!(
-                "{}; supported mesh extensions: .ply, .obj",
+                "{}; supported mesh extensions: .ply, .obj, .glb, .gltf",
                 match other {
                     Some(e) => format!("unsupported mesh extension \".{e}\""),
                     None => "no file extension".to_owned(),
@@ -75,6 +81,9 @@ fn validate(path: &Path, mesh: &Mesh, vertex_radiosity: &[[f32; 3]]) -> Result<(
 ///   linear B). One face per element (`vertex_indices`, quads stay quads).
 /// * `.obj`: `v x y z r g b` with r g b the linear radiosity B (the common
 ///   vertex-colour extension), and 1-based `f` lines, one per element.
+/// * `.glb` / `.gltf`: glTF 2.0 with `POSITION`, `NORMAL`, `COLOR_0` (B/pi
+///   times `exposure`, clamped to [0, 1], linear), `_RADIOSITY` (linear B)
+///   and an unlit material; see [`super::gltf`].
 pub fn export_mesh(
     path: &Path,
     mesh: &Mesh,
@@ -97,6 +106,26 @@ pub fn export_mesh(
         }
         MeshFormat::Obj => {
             write_atomically(path, |w| write_obj(w, mesh, vertex_radiosity).map_err(io))
+        }
+        MeshFormat::Glb | MeshFormat::Gltf => {
+            if mesh.elements.is_empty() {
+                // glTF accessors hold at least one element.
+                return Err(Error::Output {
+                    path: path.to_path_buf(),
+                    what: "the mesh has no elements to export".to_owned(),
+                });
+            }
+            let name = path
+                .file_stem()
+                .map_or_else(|| "vkrad".into(), |s| s.to_string_lossy());
+            write_atomically(path, |w| {
+                if format == MeshFormat::Glb {
+                    gltf::write_glb(w, mesh, vertex_radiosity, exposure, &name)
+                } else {
+                    gltf::write_gltf(w, mesh, vertex_radiosity, exposure, &name)
+                }
+                .map_err(io)
+            })
         }
     }
 }
@@ -324,6 +353,9 @@ mod tests {
         broken.elements[1].corners[1] = 99;
         assert!(export_mesh(&dir.join("m.obj"), &broken, &radiosity(), 1.0).is_err());
         assert!(export_mesh(&dir.join("missing/m.ply"), &mesh, &radiosity(), 1.0).is_err());
+        // glTF accessors cannot be empty: an empty mesh is refused.
+        let err = export_mesh(&dir.join("m.glb"), &Mesh::default(), &[], 1.0).unwrap_err();
+        assert!(err.to_string().contains("no elements"), "{err}");
         assert!(std::fs::read_dir(&dir).unwrap().next().is_none());
         std::fs::remove_dir_all(&dir).unwrap();
     }

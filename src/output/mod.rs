@@ -1,8 +1,9 @@
-//! Output: images (PNG/HDR/EXR), tone mapping, mesh export (PLY/OBJ) and
+//! Output: images (PNG/HDR/EXR), tone mapping, mesh export (PLY/OBJ/glTF) and
 //! golden-image comparison. Every file is written atomically.
 
 pub mod atomic;
 pub mod compare;
+pub mod gltf;
 pub mod image_io;
 pub mod mesh_export;
 pub mod tonemap;

@@ -1,0 +1,297 @@
+//! glTF 2.0 export of the lit mesh, for the viewers and engines that open
+//! glTF: `.glb` (the binary container) or `.gltf` (JSON with the buffer
+//! inline as a base64 data URI, so it is one file too).
+//!
+//! One node, one mesh, one triangle primitive with
+//!
+//! * `POSITION`, `NORMAL` (the element's patch normal; vertices belong to
+//!   one patch),
+//! * `COLOR_0`: float VEC3, the radiance B/pi times the image's exposure,
+//!   clamped to [0, 1] and left linear: glTF vertex colours are linear and
+//!   the viewer applies the sRGB transfer on display, as the PNG does,
+//! * `_RADIOSITY`: float VEC3, the linear radiosity B (an application
+//!   attribute: glTF lets those start with `_`),
+//! * `u32` indices, counter-clockwise from the front (quads as two
+//!   triangles), and a white material with `KHR_materials_unlit` so that
+//!   viewers show the baked colour unshaded (viewers without the extension
+//!   fall back to its plain white base colour, lit).
+
+use std::io::Write;
+
+use glam::Vec3;
+use serde_json::{json, Value};
+
+use crate::mesh::Mesh;
+
+/// The component types and buffer-view targets of the glTF spec.
+const FLOAT: u32 = 5126;
+const UNSIGNED_INT: u32 = 5125;
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const TRIANGLES: u32 = 4;
+
+/// `.glb`'s magic ("glTF"), version and chunk types ("JSON", "BIN\0").
+const GLB_MAGIC: u32 = 0x4654_6C67;
+const GLB_VERSION: u32 = 2;
+const CHUNK_JSON: u32 = 0x4E4F_534A;
+const CHUNK_BIN: u32 = 0x004E_4942;
+
+/// The `COLOR_0` of a radiosity: B/pi exposed, clamped to [0, 1], linear
+/// (NaN to 0).
+pub fn display_colour(radiosity: [f32; 3], exposure: f32) -> [f32; 3] {
+    radiosity.map(|b| {
+        let c = b / std::f32::consts::PI * exposure;
+        if c.is_nan() {
+            0.0
+        } else {
+            c.clamp(0.0, 1.0)
+        }
+    })
+}
+
+/// One unit normal per vertex: the area-weighted normal of the elements
+/// that use it, +z for a vertex no element uses (or whose elements cancel).
+fn vertex_normals(mesh: &Mesh) -> Vec<Vec3> {
+    let mut sum = vec![Vec3::ZERO; mesh.vertices.len()];
+    for e in &mesh.elements {
+        for &c in e.corners() {
+            sum[c as usize] += e.normal * e.area.max(f32::MIN_POSITIVE);
+        }
+    }
+    sum.into_iter()
+        .map(|n| n.try_normalize().unwrap_or(Vec3::Z))
+        .collect()
+}
+
+/// The binary buffer and the JSON that describes it.
+struct Gltf {
+    json: Value,
+    bin: Vec<u8>,
+}
+
+/// Appends `values` (floats or u32s) as one buffer view and its accessor.
+struct Builder {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Builder {
+    fn push(&mut self, bytes: &[u8], target: u32, accessor: Value) -> usize {
+        // Every element here is 4 bytes, so each view starts 4-aligned.
+        debug_assert_eq!(self.bin.len() % 4, 0);
+        self.views.push(json!({
+            "buffer": 0,
+            "byteOffset": self.bin.len(),
+            "byteLength": bytes.len(),
+            "target": target,
+        }));
+        self.bin.extend_from_slice(bytes);
+        let mut accessor = accessor;
+        accessor["bufferView"] = json!(self.views.len() - 1);
+        self.accessors.push(accessor);
+        self.accessors.len() - 1
+    }
+
+    fn vec3(&mut self, values: &[[f32; 3]], bounds: bool) -> usize {
+        let mut accessor = json!({
+            "componentType": FLOAT,
+            "count": values.len(),
+            "type": "VEC3",
+        });
+        if bounds {
+            let mut lo = [f32::INFINITY; 3];
+            let mut hi = [f32::NEG_INFINITY; 3];
+            for v in values {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(v[k]);
+                    hi[k] = hi[k].max(v[k]);
+                }
+            }
+            // f32 -> f64 is exact, so the JSON states the stored values.
+            accessor["min"] = json!(lo.map(f64::from));
+            accessor["max"] = json!(hi.map(f64::from));
+        }
+        self.push(bytemuck::cast_slice(values), ARRAY_BUFFER, accessor)
+    }
+}
+
+fn build(mesh: &Mesh, radiosity: &[[f32; 3]], exposure: f32, name: &str) -> Gltf {
+    let mut b = Builder {
+        bin: Vec::new(),
+        views: Vec::new(),
+        accessors: Vec::new(),
+    };
+    let positions: Vec<[f32; 3]> = mesh.vertices.iter().map(|v| v.to_array()).collect();
+    let normals: Vec<[f32; 3]> = vertex_normals(mesh).iter().map(Vec3::to_array).collect();
+    let colours: Vec<[f32; 3]> = radiosity
+        .iter()
+        .map(|&r| display_colour(r, exposure))
+        .collect();
+    let indices: Vec<u32> = mesh
+        .elements
+        .iter()
+        .flat_map(|e| e.triangles())
+        .flatten()
+        .collect();
+    let position = b.vec3(&positions, true);
+    let normal = b.vec3(&normals, false);
+    let colour = b.vec3(&colours, false);
+    let radiosity_accessor = b.vec3(radiosity, false);
+    let index = b.push(
+        bytemuck::cast_slice(&indices),
+        ELEMENT_ARRAY_BUFFER,
+        json!({
+            "componentType": UNSIGNED_INT,
+            "count": indices.len(),
+            "type": "SCALAR",
+        }),
+    );
+    let json = json!({
+        "asset": {
+            "version": "2.0",
+            "generator": concat!("vkrad ", env!("CARGO_PKG_VERSION")),
+        },
+        "extensionsUsed": ["KHR_materials_unlit"],
+        "scene": 0,
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0, "name": name }],
+        "meshes": [{
+            "name": name,
+            "primitives": [{
+                "attributes": {
+                    "POSITION": position,
+                    "NORMAL": normal,
+                    "COLOR_0": colour,
+                    "_RADIOSITY": radiosity_accessor,
+                },
+                "indices": index,
+                "material": 0,
+                "mode": TRIANGLES,
+            }],
+            "extras": {
+                "COLOR_0": "radiance L = B/pi times exposure, clamped to [0, 1], linear",
+                "_RADIOSITY": "linear radiosity B = pi L",
+                "exposure": f64::from(exposure),
+            },
+        }],
+        "materials": [{
+            "name": "radiosity (baked vertex colour)",
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+                "metallicFactor": 0.0,
+                "roughnessFactor": 1.0,
+            },
+            "extensions": { "KHR_materials_unlit": {} },
+        }],
+        "buffers": [{ "byteLength": b.bin.len() }],
+        "bufferViews": b.views,
+        "accessors": b.accessors,
+    });
+    Gltf { json, bin: b.bin }
+}
+
+/// Writes the `.glb` container: a 12-byte header, the JSON chunk padded
+/// with spaces and the BIN chunk padded with zeros, each to 4 bytes.
+pub(super) fn write_glb(
+    w: &mut impl Write,
+    mesh: &Mesh,
+    radiosity: &[[f32; 3]],
+    exposure: f32,
+    name: &str,
+) -> std::io::Result<()> {
+    let Gltf { json, mut bin } = build(mesh, radiosity, exposure, name);
+    let mut text = json.to_string().into_bytes();
+    while text.len() % 4 != 0 {
+        text.push(b' ');
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let total = 12 + 8 + text.len() + 8 + bin.len();
+    let total = u32::try_from(total).map_err(|_| {
+        std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("{total} bytes is over the 4 GiB a .glb can hold; export .ply"),
+        )
+    })?;
+    for word in [GLB_MAGIC, GLB_VERSION, total] {
+        w.write_all(&word.to_le_bytes())?;
+    }
+    // Both lengths fit: they are parts of `total`.
+    w.write_all(&(text.len() as u32).to_le_bytes())?;
+    w.write_all(&CHUNK_JSON.to_le_bytes())?;
+    w.write_all(&text)?;
+    w.write_all(&(bin.len() as u32).to_le_bytes())?;
+    w.write_all(&CHUNK_BIN.to_le_bytes())?;
+    w.write_all(&bin)
+}
+
+/// Writes `.gltf`: the JSON, its one buffer inline as a base64 data URI.
+pub(super) fn write_gltf(
+    w: &mut impl Write,
+    mesh: &Mesh,
+    radiosity: &[[f32; 3]],
+    exposure: f32,
+    name: &str,
+) -> std::io::Result<()> {
+    let Gltf { mut json, bin } = build(mesh, radiosity, exposure, name);
+    json["buffers"][0]["uri"] = json!(format!(
+        "data:application/octet-stream;base64,{}",
+        base64(&bin)
+    ));
+    serde_json::to_writer(&mut *w, &json)?;
+    writeln!(w)
+}
+
+/// Standard base64 (RFC 4648) with padding.
+pub fn base64(bytes: &[u8]) -> String {
+    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
+    for chunk in bytes.chunks(3) {
+        let b = [
+            chunk[0],
+            chunk.get(1).copied().unwrap_or(0),
+            chunk.get(2).copied().unwrap_or(0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(ALPHABET[((n >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_matches_rfc_4648_vectors() {
+        let cases = [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ];
+        for (plain, encoded) in cases {
+            assert_eq!(base64(plain.as_bytes()), encoded, "{plain:?}");
+        }
+        assert_eq!(base64(&[0xff, 0xfe, 0x00]), "//4A");
+    }
+
+    #[test]
+    fn display_colours_are_exposed_clamped_and_linear() {
+        let pi = std::f32::consts::PI;
+        assert_eq!(display_colour([pi, 0.5 * pi, 0.0], 1.0), [1.0, 0.5, 0.0]);
+        assert_eq!(display_colour([pi, 0.5 * pi, 0.0], 0.5), [0.5, 0.25, 0.0]);
+        assert_eq!(display_colour([10.0, -1.0, f32::NAN], 1.0), [1.0, 0.0, 0.0]);
+    }
+}
