@@ -145,6 +145,10 @@ fn main() {
         "link_error": link_error,
         "rows": rows,
     });
-    std::fs::write(&out, serde_json::to_string_pretty(&json).expect("json") + "\n").expect("write the rows");
+    std::fs::write(
+        &out,
+        serde_json::to_string_pretty(&json).expect("json") + "\n",
+    )
+    .expect("write the rows");
     println!("wrote {out}");
 }

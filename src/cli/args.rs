@@ -152,7 +152,7 @@ pub(crate) struct RenderArgs {
     /// Default: SCENE_NAME.png in the current folder.
     #[arg(short, long, value_name = "FILE")]
     pub(crate) output: Option<PathBuf>,
-    /// Also write the lit mesh: .ply (x y z, red green blue, radiosity_r/g/b) or .obj.
+    /// Also write the lit mesh: .ply (x y z, red green blue, radiosity_r/g/b), .obj, or glTF 2.0 (.glb binary, .gltf with the buffer embedded: POSITION, NORMAL, COLOR_0 at the image's exposure, _RADIOSITY linear).
     #[arg(long, value_name = "FILE")]
     pub(crate) export: Option<PathBuf>,
     #[command(flatten)]

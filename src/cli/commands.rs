@@ -168,6 +168,9 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
 pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
     vkrad::app::check_output_path(&args.output, &["obj", "ply"])?;
     let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
     let device = Device::new(&args.gpu.options())?;
     let settings = MeshSettings {
         mesher: args.mesh.mesher(),

@@ -140,9 +140,21 @@ fn no_emitter_is_an_error_with_a_hint() {
 }
 
 #[test]
-fn degenerate_face_names_its_line() {
-    let obj = GOOD_OBJ.replace("f 1 2 3 4", "f 1 1 1");
-    expect_failure("degenerate", &obj, Some(MTL), &["scene.obj:11"]);
+fn degenerate_face_is_dropped_with_a_warning_naming_its_line() {
+    // A zero-area face carries no light: dropped, and said where.
+    let dir = temp_dir("degenerate");
+    let obj = GOOD_OBJ.replace("f 1 2 3 4", "f 1 2 3 4\nf 1 1 1");
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    std::fs::write(dir.join("scene.mtl"), MTL).unwrap();
+    let out = vkrad(&["scene.obj", "-o", "out.png", "--size", "16x16"], &dir);
+    let all = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+    assert!(out.status.success(), "{all}");
+    assert!(
+        all.contains("zero-area") && all.contains("scene.obj:12"),
+        "{all}"
+    );
+    assert!(dir.join("out.png").exists());
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
