@@ -59,7 +59,9 @@ pub struct DiscontinuityOptions {
     /// Insert contact (D0) edges. Default true.
     pub contact: bool,
     /// Snap tolerance relative to a target's size (bounding-box diagonal).
-    /// Default 1e-4 (above `sanity_check`'s 1e-5 on-edge tolerance).
+    /// Default 1e-4 (above `sanity_check`'s 1e-5 on-edge tolerance); raised
+    /// for small patches far from the origin, where f32 steps are coarser
+    /// (`Frame::snap`).
     pub snap_relative: f64,
     /// Refinement stops adding triangles to a patch beyond this many.
     pub max_triangles_per_patch: usize,
@@ -193,7 +195,8 @@ pub fn discontinuity_mesh(
         stats.segments += segments.len();
         let mid = Instant::now();
         stats.projection_time += mid - start;
-        let mut arr = Arrangement::new(&frame.corners, options.snap_relative);
+        let snap = frame.snap(options.snap_relative);
+        let mut arr = Arrangement::new(&frame.corners, snap);
         stats.segments_distinct += arr.add_segments(&segments);
         for (_, p) in options
             .extra_points
@@ -202,7 +205,7 @@ pub fn discontinuity_mesh(
         {
             let q = frame.to_2d(p.as_dvec3());
             // Only points inside the patch (on its boundary counts).
-            if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, options.snap_relative) {
+            if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, snap) {
                 arr.insert(q);
             }
         }
