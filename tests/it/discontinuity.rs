@@ -67,15 +67,50 @@ v 24 30 23.5
 f 13 14 15 16
 ";
 
+/// rfield's patch 3212 (letter 23's slanted leg, 2.5 across) with the front
+/// piece above it and the floor: the sliver repair took the interior edge
+/// opposite a sliver's apex for a boundary edge (its midpoint within the
+/// snap tolerance of the corner's edge) and left the sliver, which then
+/// went the same way as above.
+const NEAR_CORNER_SLIVER: &str = "\
+mtllib letters.mtl
+usemtl floor
+v -2 0 -2
+v -2 0 41
+v 58 0 41
+v 58 0 -2
+f 1 2 3 4
+usemtl letter
+v 38.17232 2.404375 4.8
+v 38.1 2.4 4.8
+v 38.1 2 4.8
+v 38.220535 2.007291 4.8
+f 5 6 7 8
+v 39.4 -0.00000000000000012101172 4.8
+v 39.4 -0.00000000000000012101172 4.2
+v 38.1 2 4.2
+v 38.1 2 4.8
+f 9 10 11 12
+usemtl light
+v 24 30 15.5
+v 32 30 15.5
+v 32 30 23.5
+v 24 30 23.5
+f 13 14 15 16
+";
+
 const LETTERS_MTL: &str = "newmtl floor\nKd 0.7 0.7 0.7\n\nnewmtl letter\nKd 0.75 0.2 0.15\n\nnewmtl light\nKd 0 0 0\nKe 10 10 10\n";
 
-/// The shrunk rfield cases mesh soundly with the CPU oracle and the GPU
+/// Both shrunk rfield cases mesh soundly with the CPU oracle and the GPU
 /// pass, with and without subdivision (before the fixes: an element of
 /// zero area, or one facing away, in the target patch).
 #[test]
 fn rfield_slivers_are_repaired() {
     let device = common::device();
-    for (name, obj) in [("far_small_patch", FAR_SMALL_PATCH)] {
+    for (name, obj) in [
+        ("far_small_patch", FAR_SMALL_PATCH),
+        ("near_corner_sliver", NEAR_CORNER_SLIVER),
+    ] {
         let scene =
             vkrad::scene::load_from_str(name, obj, |_| Some(LETTERS_MTL.to_owned())).unwrap();
         let max_edge = vkrad::mesh::default_max_edge(&scene);

@@ -117,8 +117,12 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             if off >= tol || along <= tol || along >= len - tol {
                 continue;
             }
+            // Only a polygon edge is never flipped: an interior edge near
+            // the boundary (its midpoint within the snap tolerance, which
+            // `is_boundary` counts for splits) may be, since a flip adds
+            // no vertex.
             let e = Editor::key(a, b);
-            if r.is_boundary(e) {
+            if share_edge(&r.tags[a as usize], &r.tags[b as usize]) {
                 continue;
             }
             let Some(nb) = r.neighbour(t, e) else {
