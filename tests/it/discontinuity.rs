@@ -6,6 +6,7 @@
 use crate::common;
 
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings, Mesher};
+use vkrad::mesh::discontinuity::visibility::gpu_blockers;
 use vkrad::mesh::discontinuity::{cpu_blockers, discontinuity_mesh, DiscontinuityOptions};
 
 #[test]
@@ -261,4 +262,47 @@ fn rfield_slivers_are_repaired() {
         }
     }
     common::assert_validation_clean(&device);
+}
+
+/// Shaft culling (thesis 4.2.2): a field of squares beside the simple
+/// scene's floor, outside every shaft but their own, adds no polygon to the
+/// floor's tiles, and the squares (nothing between them and the light) are
+/// answered without tiles.
+#[test]
+fn tiles_draw_only_the_shaft() {
+    let device = common::device();
+    let mut scene = vkrad::scene::load_builtin("simple").unwrap().unwrap();
+    let floor_material = scene.patches[0].material;
+    for i in 0..100 {
+        let (x, z) = (20.0 + (i % 10) as f32, (i / 10) as f32 - 5.0);
+        let square = [
+            glam::Vec3::new(x, 0.5, z),
+            glam::Vec3::new(x, 0.5, z + 0.5),
+            glam::Vec3::new(x + 0.5, 0.5, z + 0.5),
+            glam::Vec3::new(x + 0.5, 0.5, z),
+        ];
+        scene.patches.push(common::polygon(&square, floor_material));
+    }
+    let (floor, blocker, light) = (0, 1, 2);
+    assert!(scene.material_of(&scene.patches[light]).is_emitter());
+    let table = gpu_blockers(&device, &scene, 64).unwrap();
+    common::assert_validation_clean(&device);
+    for k in 0..3 {
+        assert_eq!(
+            table.get(light, k, floor),
+            Some(vec![blocker]),
+            "vertex {k}"
+        );
+        for square in 3..scene.patches.len() {
+            assert_eq!(table.get(light, k, square), Some(vec![]), "vertex {k}");
+        }
+    }
+    assert!(table.culled >= 300, "{} culled", table.culled);
+    // The floor's and the blocker's tiles: the blocker alone is drawn.
+    assert!(
+        table.drawn <= table.tiles,
+        "{} drawn in {} tiles",
+        table.drawn,
+        table.tiles
+    );
 }
