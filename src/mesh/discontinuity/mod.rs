@@ -41,6 +41,7 @@ mod backproject;
 mod cdt;
 mod conform;
 mod project;
+mod shaft;
 #[cfg(test)]
 mod tests;
 pub mod visibility;
@@ -167,6 +168,14 @@ pub fn discontinuity_mesh(
     let extent = f64::from(scene.extent());
     let extent = if extent.is_finite() { extent } else { 0.0 };
 
+    // The extra points of each patch (one pass over them, not one a patch).
+    let mut extra: Vec<Vec<glam::Vec3>> = vec![Vec::new(); patches.len()];
+    for &(p, q) in &options.extra_points {
+        if let Some(list) = extra.get_mut(p as usize) {
+            list.push(q);
+        }
+    }
+
     // Pass 1: segments and arrangement of every patch.
     let mut arrangements: Vec<Option<Arrangement>> = Vec::with_capacity(patches.len());
     let mut segments: Vec<(DVec2, DVec2)> = Vec::new();
@@ -198,11 +207,7 @@ pub fn discontinuity_mesh(
         let snap = frame.snap(options.snap_relative);
         let mut arr = Arrangement::new(&frame.corners, snap);
         stats.segments_distinct += arr.add_segments(&segments);
-        for (_, p) in options
-            .extra_points
-            .iter()
-            .filter(|(p, _)| *p as usize == t)
-        {
+        for p in extra.get(t).into_iter().flatten() {
             let q = frame.to_2d(p.as_dvec3());
             // Only points inside the patch (on its boundary counts).
             if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, snap) {
