@@ -3,10 +3,10 @@
 //! seen inside the target's footprint, nearer than the target.
 //!
 //! Each pair owns a square tile of an atlas. Per tile: the target is drawn
-//! into the stencil (and depth, and its own id); then every polygon is drawn
-//! where the stencil is set and the depth is nearer or equal. What shows is
-//! the target itself (where it is lit) and its blockers. A compute pass turns
-//! each tile into a bitset of polygon ids.
+//! into the stencil (and depth, and its own id); then the tile's candidate
+//! triangles (an index list the caller culled to the light-to-target shaft)
+//! are drawn where the stencil is set and the depth is nearer or equal. What shows is the target itself (where it is lit) and its
+//! blockers. A compute pass turns each tile into a bitset of polygon ids.
 
 use std::sync::Arc;
 
@@ -32,6 +32,10 @@ pub struct VisibilityTile {
     /// The target's triangles: `vertex_count` vertices from `first_vertex`.
     pub first_vertex: u32,
     pub vertex_count: u32,
+    /// The triangles that may show: `index_count` vertex indices from
+    /// `first_index` of the index list given to [`VisibilityPass::run`].
+    pub first_index: u32,
+    pub index_count: u32,
 }
 
 /// Tiles per atlas side at most; a batch is up to 32 x 32 tiles.
@@ -50,6 +54,8 @@ pub struct VisibilityPass {
     polygon_count: u32,
     words_per_tile: u32,
     vertices: Buffer,
+    /// The tiles' candidate triangles (vertex indices), rewritten per run.
+    indices: Option<Buffer>,
     item: Image,
     depth: Image,
     flags: Buffer,
@@ -186,6 +192,7 @@ impl VisibilityPass {
             polygon_count,
             words_per_tile,
             vertices,
+            indices: None,
             item,
             depth,
             flags,
@@ -207,8 +214,23 @@ impl VisibilityPass {
         (self.tiles_per_side * self.tiles_per_side) as usize
     }
 
-    /// For each tile, the polygon ids seen in it (sorted).
-    pub fn run(&mut self, tiles: &[VisibilityTile]) -> Result<Vec<Vec<u32>>> {
+    /// For each tile, the polygon ids seen in it (sorted). `indices` holds
+    /// every tile's candidate triangles (vertex indices into the vertex
+    /// list given to [`VisibilityPass::new`]).
+    pub fn run(&mut self, tiles: &[VisibilityTile], indices: &[u32]) -> Result<Vec<Vec<u32>>> {
+        let total_vertices =
+            (self.vertices.size() / std::mem::size_of::<ItemVertex>() as u64) as u32;
+        let in_range = |t: &VisibilityTile| {
+            (t.first_index as usize)
+                .checked_add(t.index_count as usize)
+                .is_some_and(|end| end <= indices.len())
+        };
+        if !tiles.iter().all(in_range) || indices.iter().any(|&i| i >= total_vertices) {
+            return Err(Error::Invalid(
+                "visibility: a tile's index range or an index is out of bounds".into(),
+            ));
+        }
+        self.upload_indices(indices)?;
         let mut seen = Vec::with_capacity(tiles.len());
         for batch in tiles.chunks(self.batch_size()) {
             self.record(batch)?;
@@ -241,6 +263,25 @@ impl VisibilityPass {
         Ok(seen)
     }
 
+    /// Writes the index list, growing its buffer when it is too small (the
+    /// previous submission has finished: `run` waits for each).
+    fn upload_indices(&mut self, indices: &[u32]) -> Result<()> {
+        let bytes = std::mem::size_of_val(indices) as u64;
+        if self.indices.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.indices = Some(Buffer::new(
+                &self.device,
+                "visibility candidate indices",
+                bytes.next_power_of_two().max(1 << 16),
+                vk::BufferUsageFlags::INDEX_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?);
+        }
+        match self.indices.as_mut() {
+            Some(buffer) => buffer.write(0, indices),
+            None => Err(Error::Invalid("internal: index buffer missing".into())),
+        }
+    }
+
     fn record(&mut self, batch: &[VisibilityTile]) -> Result<()> {
         let d = self.device.clone();
         let raw = &d.raw;
@@ -258,9 +299,13 @@ impl VisibilityPass {
             self.flags.raw(),
         );
         let side = self.tiles_per_side * self.tile_res;
-        let total_vertices =
-            (self.vertices.size() / std::mem::size_of::<ItemVertex>() as u64) as u32;
-        // SAFETY: cmd is recording; every handle is owned by self.
+        let indices = self
+            .indices
+            .as_ref()
+            .map(Buffer::raw)
+            .ok_or_else(|| Error::Invalid("internal: index buffer missing".into()))?;
+        // SAFETY: cmd is recording; every handle is owned by self; `run` checked
+        // every tile's index range and every index against the vertex buffer.
         unsafe {
             begin_rendering(
                 &d,
@@ -279,6 +324,7 @@ impl VisibilityPass {
                 true,
             );
             raw.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices.raw()], &[0]);
+            raw.cmd_bind_index_buffer(cmd, indices, 0, vk::IndexType::UINT32);
             for (i, tile) in batch.iter().enumerate() {
                 let i = i as u32;
                 let x = (i % self.tiles_per_side) * self.tile_res;
@@ -296,7 +342,9 @@ impl VisibilityPass {
                 raw.cmd_draw(cmd, tile.vertex_count, 1, tile.first_vertex, 0);
                 // Everything nearer (or the target again) inside the footprint.
                 raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.item_pipeline.raw);
-                raw.cmd_draw(cmd, total_vertices, 1, 0, 0);
+                if tile.index_count > 0 {
+                    raw.cmd_draw_indexed(cmd, tile.index_count, 1, tile.first_index, 0, 0);
+                }
             }
             raw.cmd_end_rendering(cmd);
         }

@@ -37,12 +37,17 @@ pub struct MeshSettings {
 /// What meshing did, for the summary and the report.
 #[derive(Debug, Clone, Default)]
 pub struct MeshReport {
-    /// (stage, wall time): "visibility (GPU)", "projection", "arrangement", "CDT", "uniform".
+    /// (stage, wall time): "shaft culling", "visibility (GPU)",
+    /// "projection", "arrangement", "CDT", "uniform".
     pub stages: Vec<(&'static str, Duration)>,
     pub discontinuity: Option<DiscontinuityStats>,
     /// (emitter vertex, target) pairs and the GPU tiles they needed.
     pub pairs: usize,
     pub tiles: usize,
+    /// Pairs whose light-to-target shaft held no polygon (no tile), and
+    /// the polygons the tiles drew in all.
+    pub culled: usize,
+    pub drawn: usize,
 }
 
 impl MeshReport {
@@ -229,8 +234,13 @@ impl<'a> MeshBuilder<'a> {
             Mesher::Discontinuity { subdivide } => {
                 if self.table.is_none() {
                     let t = Instant::now();
-                    self.table = Some(gpu_blockers(self.device, scene, settings.dm_res)?);
-                    report.stages.push(("visibility (GPU)", t.elapsed()));
+                    let table = gpu_blockers(self.device, scene, settings.dm_res)?;
+                    let total = t.elapsed();
+                    report.stages.push(("shaft culling", table.culling_time));
+                    report
+                        .stages
+                        .push(("visibility (GPU)", total.saturating_sub(table.culling_time)));
+                    self.table = Some(table);
                 }
                 let table = self
                     .table
@@ -238,6 +248,8 @@ impl<'a> MeshBuilder<'a> {
                     .ok_or_else(|| Error::Invalid("internal: blocker table missing".into()))?;
                 report.pairs = table.pairs;
                 report.tiles = table.tiles;
+                report.culled = table.culled;
+                report.drawn = table.drawn;
                 let options = DiscontinuityOptions {
                     max_edge: subdivide.then_some(settings.max_edge),
                     extra_points: extra_points.to_vec(),

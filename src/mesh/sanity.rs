@@ -11,6 +11,7 @@ use crate::geom::newell;
 use crate::scene::Scene;
 
 mod coplanar;
+pub(crate) use coplanar::F32_SLACK;
 pub use coplanar::{coplanar_t_junctions, distinct_t_junctions, TJunction};
 
 /// Relative tolerance (to the patch size) under which two vertices of one

@@ -41,6 +41,7 @@ mod backproject;
 mod cdt;
 mod conform;
 mod project;
+mod shaft;
 #[cfg(test)]
 mod tests;
 pub mod visibility;
@@ -59,7 +60,9 @@ pub struct DiscontinuityOptions {
     /// Insert contact (D0) edges. Default true.
     pub contact: bool,
     /// Snap tolerance relative to a target's size (bounding-box diagonal).
-    /// Default 1e-4 (above `sanity_check`'s 1e-5 on-edge tolerance).
+    /// Default 1e-4 (above `sanity_check`'s 1e-5 on-edge tolerance); raised
+    /// for small patches far from the origin, where f32 steps are coarser
+    /// (`Frame::snap`).
     pub snap_relative: f64,
     /// Refinement stops adding triangles to a patch beyond this many.
     pub max_triangles_per_patch: usize,
@@ -165,6 +168,14 @@ pub fn discontinuity_mesh(
     let extent = f64::from(scene.extent());
     let extent = if extent.is_finite() { extent } else { 0.0 };
 
+    // The extra points of each patch (one pass over them, not one a patch).
+    let mut extra: Vec<Vec<glam::Vec3>> = vec![Vec::new(); patches.len()];
+    for &(p, q) in &options.extra_points {
+        if let Some(list) = extra.get_mut(p as usize) {
+            list.push(q);
+        }
+    }
+
     // Pass 1: segments and arrangement of every patch.
     let mut arrangements: Vec<Option<Arrangement>> = Vec::with_capacity(patches.len());
     let mut segments: Vec<(DVec2, DVec2)> = Vec::new();
@@ -193,16 +204,13 @@ pub fn discontinuity_mesh(
         stats.segments += segments.len();
         let mid = Instant::now();
         stats.projection_time += mid - start;
-        let mut arr = Arrangement::new(&frame.corners, options.snap_relative);
+        let snap = frame.snap(options.snap_relative);
+        let mut arr = Arrangement::new(&frame.corners, snap);
         stats.segments_distinct += arr.add_segments(&segments);
-        for (_, p) in options
-            .extra_points
-            .iter()
-            .filter(|(p, _)| *p as usize == t)
-        {
+        for p in extra.get(t).into_iter().flatten() {
             let q = frame.to_2d(p.as_dvec3());
             // Only points inside the patch (on its boundary counts).
-            if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, options.snap_relative) {
+            if frame.corners.len() >= 3 && inside_convex(&frame.corners, q, snap) {
                 arr.insert(q);
             }
         }

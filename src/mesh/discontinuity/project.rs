@@ -6,6 +6,7 @@
 use glam::{DVec2, DVec3};
 
 use super::{DiscontinuityOptions, DiscontinuityStats};
+use crate::mesh::sanity::F32_SLACK;
 use crate::scene::{Patch, Scene};
 
 /// A target patch's plane and 2D frame.
@@ -91,6 +92,23 @@ impl Frame {
         DVec2::new(r.dot(self.e1), r.dot(self.e2)) / self.size
     }
 
+    /// The snap tolerance of this target (scaled 2D units): `relative`,
+    /// but never under [`F32_SNAPS`] times the coplanar check's f32 slack
+    /// at the patch's coordinates. A small patch far from the origin is
+    /// stored in f32 steps that are large against its size; a sliver whose
+    /// apex is beyond the mesher's sliver tolerance (0.3 snap) but within
+    /// that slack of the opposite edge reads as a same-plane T-junction, and
+    /// splitting it at its own apex makes an element of zero area.
+    pub fn snap(&self, relative: f64) -> f64 {
+        let magnitude = self
+            .corners3
+            .iter()
+            .map(|c| c.abs().max_element())
+            .fold(0.0, f64::max);
+        let floor = F32_SNAPS * F32_SLACK * magnitude / self.size;
+        relative.max(floor).min(MAX_SNAP)
+    }
+
     /// Scaled 2D point to the world point on the plane.
     pub fn to_3d(&self, q: DVec2) -> DVec3 {
         self.origin + (self.e1 * q.x + self.e2 * q.y) * self.size
@@ -103,6 +121,13 @@ impl Frame {
         a + (b - a) * t
     }
 }
+
+/// A target's snap tolerance is at least this many times the coplanar
+/// check's f32 slack: the sliver repair's tolerance (0.3 snap) is then 1.5
+/// times the slack, with room for the rounding of every vertex to f32.
+const F32_SNAPS: f64 = 5.0;
+/// Snap tolerances stay below this (the largest `snap_relative` allowed).
+const MAX_SNAP: f64 = 1e-2;
 
 /// Projects the segment `p0`-`p1` from the point `v` onto the frame's plane
 /// (2D). Only the part of the segment strictly in front of the plane (height
@@ -268,9 +293,10 @@ pub(super) fn collect_segments(
     let ev: Vec<DVec3> = emitter.vertices.iter().map(|v| v.as_dvec3()).collect();
     // Heights within this of the plane count as touching it.
     let lo = (1e-5 * frame.size).max(1e-6 * extent);
+    let snap = frame.snap(options.snap_relative);
     let clip = |a: DVec2, b: DVec2, out: &mut Vec<(DVec2, DVec2)>| {
         if let Some((a, b)) = clip_to_convex(&frame.corners, a, b) {
-            if a.distance(b) > options.snap_relative {
+            if a.distance(b) > snap {
                 out.push((a, b));
             }
         }

@@ -4,8 +4,12 @@
 
 use std::collections::HashMap;
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use glam::{DVec3, Mat4, Vec3};
+use rayon::prelude::*;
+
+use super::shaft::{PatchBvh, Shaft};
 
 use crate::error::Result;
 use crate::geom::frustum::frustum;
@@ -23,6 +27,12 @@ pub struct BlockerTable {
     /// Pairs considered, and those that needed a GPU tile.
     pub pairs: usize,
     pub tiles: usize,
+    /// Pairs whose shaft held no candidate: lit, nothing in front, no tile.
+    pub culled: usize,
+    /// Candidate polygons drawn after the target, summed over the tiles.
+    pub drawn: usize,
+    /// CPU time of the shaft queries and of building the index lists.
+    pub culling_time: Duration,
     pub times: StageTimes,
 }
 
@@ -51,15 +61,23 @@ impl BlockerTable {
     }
 }
 
-/// The GPU tile that looks at `target` from light point `v` of `emitter`,
-/// if the emitter lights the target from there at all.
-fn light_tile(
+/// One (light point, target) pair that the emitter lights: its table key,
+/// the point and the tile's view.
+struct Pair {
+    key: (usize, usize, usize),
     v: Vec3,
-    emitter: &crate::scene::Patch,
-    target: &crate::scene::Patch,
-    (first_vertex, vertex_count): (u32, u32),
+    view_proj: Mat4,
+}
+
+/// The pair of light point `v` of emitter `e` (vertex or edge-midpoint key
+/// `k`) and target `t`, if the emitter lights the target from there at all.
+fn light_pair(
+    scene: &Scene,
+    (e, k, t): (usize, usize, usize),
+    v: Vec3,
     tile_res: u32,
-) -> Option<VisibilityTile> {
+) -> Option<Pair> {
+    let (emitter, target) = (&scene.patches[e], &scene.patches[t]);
     // The emitter lights only its front half-space.
     if !target
         .vertices
@@ -69,10 +87,10 @@ fn light_tile(
         return None;
     }
     let view_proj = tile_view(v, &target.vertices, target.normal, tile_res)?;
-    Some(VisibilityTile {
+    Some(Pair {
+        key: (e, k, t),
+        v,
         view_proj,
-        first_vertex,
-        vertex_count,
     })
 }
 
@@ -112,80 +130,218 @@ pub fn tile_view(v: Vec3, target: &[Vec3], normal: Vec3, res: u32) -> Option<Mat
 }
 
 /// Runs the GPU visibility pass for every emitter vertex and target patch.
+/// Each tile draws only the polygons in the shaft from its light point to
+/// its target (`shaft`, thesis 4.2.2); a pair whose shaft holds none is lit
+/// and unblocked without a tile.
 pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Result<BlockerTable> {
-    // Every patch as a triangle fan, tagged with its index; patch p's
-    // triangles are contiguous.
-    let mut triangles = Vec::new();
-    let mut ranges = Vec::with_capacity(scene.patches.len());
-    for (i, p) in scene.patches.iter().enumerate() {
-        let first = triangles.len() as u32;
-        for k in 1..p.vertices.len() - 1 {
-            for v in [p.vertices[0], p.vertices[k], p.vertices[k + 1]] {
-                triangles.push(ItemVertex {
-                    position: v.to_array(),
-                    element: i as u32,
-                });
-            }
-        }
-        ranges.push((first, triangles.len() as u32 - first));
-    }
-    let mut keys = Vec::new();
-    let mut tiles = Vec::new();
+    let start = Instant::now();
+    let tiler = Tiler::new(scene);
     let mut table = BlockerTable::default();
-    for (e, emitter) in scene.patches.iter().enumerate() {
-        if !scene.material_of(emitter).is_emitter() {
-            continue;
-        }
-        for (k, &v) in emitter.vertices.iter().enumerate() {
+    let mut pass: Option<VisibilityPass> = None;
+    let emitters: Vec<usize> = (0..scene.patches.len())
+        .filter(|&e| scene.material_of(&scene.patches[e]).is_emitter())
+        .collect();
+    let mut pairs = Vec::new();
+    for &e in &emitters {
+        for (k, &v) in scene.patches[e].vertices.iter().enumerate() {
             for (t, target) in scene.patches.iter().enumerate() {
                 if t == e || scene.material_of(target).is_emitter() {
                     continue;
                 }
                 table.pairs += 1;
-                if let Some(tile) = light_tile(v, emitter, target, ranges[t], tile_res) {
-                    keys.push((e, k, t));
-                    tiles.push(tile);
-                }
+                pairs.extend(light_pair(scene, (e, k, t), v, tile_res));
             }
         }
     }
-    if tiles.is_empty() {
-        return Ok(table);
-    }
-    let mut pass = VisibilityPass::new(device, &triangles, scene.patches.len() as u32, tile_res)?;
-    table.tiles = tiles.len();
-    table.insert_seen(keys, pass.run(&tiles)?);
+    table.culling_time += start.elapsed();
+    tiler.run(device, &mut pass, &mut table, &pairs, tile_res)?;
 
     // Edge-vertex events take their blockers from the whole emitter edge.
     // A blocker can be hidden from both ends of an edge yet seen from its
     // middle (two occluders, each hiding it from one end), so edges whose
     // ends see blockers on a target are also looked at from their midpoint,
     // key (e, m + k, t) for edge k of an emitter with m vertices.
-    let (mut keys, mut tiles) = (Vec::new(), Vec::new());
-    for (e, emitter) in scene.patches.iter().enumerate() {
-        if !scene.material_of(emitter).is_emitter() {
-            continue;
-        }
+    let start = Instant::now();
+    let mut pairs = Vec::new();
+    for &e in &emitters {
+        let emitter = &scene.patches[e];
         let m = emitter.vertices.len();
         for k in 0..m {
             let j = (k + 1) % m;
             let mid = 0.5 * (emitter.vertices[k] + emitter.vertices[j]);
-            for (t, target) in scene.patches.iter().enumerate() {
+            for t in 0..scene.patches.len() {
                 let blocked = |v: usize| table.table.get(&(e, v, t)).is_some_and(|l| !l.is_empty());
-                if !(blocked(k) || blocked(j)) {
-                    continue;
-                }
-                if let Some(tile) = light_tile(mid, emitter, target, ranges[t], tile_res) {
-                    keys.push((e, m + k, t));
-                    tiles.push(tile);
+                if blocked(k) || blocked(j) {
+                    pairs.extend(light_pair(scene, (e, m + k, t), mid, tile_res));
                 }
             }
         }
     }
-    table.tiles += tiles.len();
-    table.insert_seen(keys, pass.run(&tiles)?);
-    table.times = pass.times.clone();
+    table.culling_time += start.elapsed();
+    tiler.run(device, &mut pass, &mut table, &pairs, tile_res)?;
+    if let Some(pass) = pass {
+        table.times = pass.times.clone();
+    }
     Ok(table)
+}
+
+/// What the tiles draw: every patch as a triangle fan tagged with its
+/// index (patch p's vertices are `ranges[p]`), and the shaft culler.
+struct Tiler<'a> {
+    scene: &'a Scene,
+    triangles: Vec<ItemVertex>,
+    ranges: Vec<(u32, u32)>,
+    bvh: PatchBvh,
+    /// Slack of the shaft's planes (world units).
+    eps: f64,
+}
+
+/// Pairs whose shafts are queried at once (in parallel).
+const QUERY_CHUNK: usize = 4096;
+
+impl<'a> Tiler<'a> {
+    fn new(scene: &'a Scene) -> Self {
+        let mut triangles = Vec::new();
+        let mut ranges = Vec::with_capacity(scene.patches.len());
+        for (i, p) in scene.patches.iter().enumerate() {
+            let first = triangles.len() as u32;
+            for k in 1..p.vertices.len().saturating_sub(1) {
+                for v in [p.vertices[0], p.vertices[k], p.vertices[k + 1]] {
+                    triangles.push(ItemVertex {
+                        position: v.to_array(),
+                        element: i as u32,
+                    });
+                }
+            }
+            ranges.push((first, triangles.len() as u32 - first));
+        }
+        let extent = f64::from(scene.extent());
+        Tiler {
+            scene,
+            triangles,
+            ranges,
+            bvh: PatchBvh::new(scene),
+            eps: if extent.is_finite() {
+                1e-6 * extent
+            } else {
+                0.0
+            },
+        }
+    }
+
+    /// The candidates of one pair (the emitter and the target left out),
+    /// sorted; `None` when the shaft cannot be built (then every polygon is).
+    fn candidates(&self, pair: &Pair) -> Option<Vec<u32>> {
+        let (e, _, t) = pair.key;
+        let shaft = Shaft::new(pair.v.as_dvec3(), &self.scene.patches[t], self.eps)?;
+        let mut out = Vec::new();
+        self.bvh.query(self.scene, &shaft, &mut out);
+        out.retain(|&b| b as usize != t && b as usize != e);
+        out.sort_unstable();
+        Some(out)
+    }
+
+    /// Answers `pairs`: culled ones at once, the others by GPU tiles, a
+    /// batch per submission (the pass is made on first use).
+    fn run(
+        &self,
+        device: &Arc<Device>,
+        pass: &mut Option<VisibilityPass>,
+        table: &mut BlockerTable,
+        pairs: &[Pair],
+        tile_res: u32,
+    ) -> Result<()> {
+        let (mut keys, mut tiles, mut indices) = (Vec::new(), Vec::new(), Vec::new());
+        for chunk in pairs.chunks(QUERY_CHUNK) {
+            let start = Instant::now();
+            let found: Vec<Option<Vec<u32>>> =
+                chunk.par_iter().map(|p| self.candidates(p)).collect();
+            for (pair, found) in chunk.iter().zip(found) {
+                let (_, _, t) = pair.key;
+                if found.as_ref().is_some_and(Vec::is_empty) {
+                    table.culled += 1;
+                    table.table.insert(pair.key, Vec::new());
+                    continue;
+                }
+                let first_index = indices.len() as u32;
+                let mut draw = |p: usize| {
+                    let (first, count) = self.ranges[p];
+                    indices.extend(first..first + count);
+                };
+                // The target's own id is in its pixels from the stencil
+                // pass; only what may stand in front of it is drawn.
+                match &found {
+                    Some(list) => list.iter().for_each(|&b| draw(b as usize)),
+                    None => (0..self.ranges.len())
+                        .filter(|&b| b != t)
+                        .for_each(&mut draw),
+                }
+                table.drawn += found.map_or(self.ranges.len() - 1, |l| l.len());
+                let (first_vertex, vertex_count) = self.ranges[t];
+                keys.push(pair.key);
+                tiles.push(VisibilityTile {
+                    view_proj: pair.view_proj,
+                    first_vertex,
+                    vertex_count,
+                    first_index,
+                    index_count: indices.len() as u32 - first_index,
+                });
+            }
+            table.culling_time += start.elapsed();
+            if tiles.len() >= pass.as_ref().map_or(1024, VisibilityPass::batch_size) {
+                self.flush(
+                    device,
+                    pass,
+                    table,
+                    &mut keys,
+                    &mut tiles,
+                    &mut indices,
+                    tile_res,
+                )?;
+            }
+        }
+        self.flush(
+            device,
+            pass,
+            table,
+            &mut keys,
+            &mut tiles,
+            &mut indices,
+            tile_res,
+        )
+    }
+
+    /// Renders the tiles gathered so far and records what they saw.
+    #[allow(clippy::too_many_arguments)]
+    fn flush(
+        &self,
+        device: &Arc<Device>,
+        pass: &mut Option<VisibilityPass>,
+        table: &mut BlockerTable,
+        keys: &mut Vec<(usize, usize, usize)>,
+        tiles: &mut Vec<VisibilityTile>,
+        indices: &mut Vec<u32>,
+        tile_res: u32,
+    ) -> Result<()> {
+        if tiles.is_empty() {
+            return Ok(());
+        }
+        let pass = match pass {
+            Some(pass) => pass,
+            None => pass.insert(VisibilityPass::new(
+                device,
+                &self.triangles,
+                self.scene.patches.len() as u32,
+                tile_res,
+            )?),
+        };
+        table.tiles += tiles.len();
+        let seen = pass.run(tiles, indices)?;
+        table.insert_seen(std::mem::take(keys), seen);
+        tiles.clear();
+        indices.clear();
+        Ok(())
+    }
 }
 
 /// The conservative CPU visibility oracle: for emitter patch `e`, its vertex

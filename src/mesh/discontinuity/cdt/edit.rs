@@ -95,7 +95,21 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
     let mut flips = 0;
     let mut stack: Vec<u32> = (0..r.tris.len() as u32).rev().collect();
     let budget = 4 * r.tris.len() + 16;
-    while let Some(t) = stack.pop() {
+    // Slivers nothing could fix wait until the rest has changed: in a chain
+    // of nearly collinear vertices the triangle across is a sliver too, and
+    // once its own flip has put a vertex off the line across the shared
+    // edge, this one's flip helps.
+    let mut waiting: Vec<u32> = Vec::new();
+    let (mut rounds, mut flips_before) = (0, 0);
+    loop {
+        let Some(t) = stack.pop() else {
+            if waiting.is_empty() || flips == flips_before || rounds >= MAX_ROUNDS {
+                break;
+            }
+            (rounds, flips_before) = (rounds + 1, flips);
+            stack = std::mem::take(&mut waiting);
+            continue;
+        };
         if !r.alive[t as usize] || flips >= budget {
             continue;
         }
@@ -117,8 +131,12 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
             if off >= tol || along <= tol || along >= len - tol {
                 continue;
             }
+            // Only a polygon edge is never flipped: an interior edge near
+            // the boundary (its midpoint within the snap tolerance, which
+            // `is_boundary` counts for splits) may be, since a flip adds
+            // no vertex.
             let e = Editor::key(a, b);
-            if r.is_boundary(e) {
+            if share_edge(&r.tags[a as usize], &r.tags[b as usize]) {
                 continue;
             }
             let Some(nb) = r.neighbour(t, e) else {
@@ -161,6 +179,9 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
                     stack.extend(changed);
                     stack.push(t);
                     break;
+                }
+                if waiting.last() != Some(&t) {
+                    waiting.push(t);
                 }
                 continue;
             }
@@ -207,6 +228,9 @@ pub(crate) fn fix_slivers(tri: &mut Triangulated, poly: &[DVec2], snap: f64, tol
 /// How far (in snap tolerances) [`fix_slivers`] may move a vertex when it
 /// collapses a short edge.
 const COLLAPSE_SNAPS: f64 = 4.0;
+/// Rounds of [`fix_slivers`] over the slivers it could not fix, while the
+/// last round fixed something.
+const MAX_ROUNDS: usize = 8;
 
 /// Twice the signed area over the longest edge: the smallest altitude of a
 /// counter-clockwise triangle (negative when clockwise, 0 when degenerate).
