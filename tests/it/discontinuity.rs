@@ -225,6 +225,45 @@ v 24 30 23.5
 f 78 79 80 81
 ";
 
+/// A 700-letter field's (`generate_scenes.py --rfield 700 28`) patch 40882,
+/// letter 300's slanted leg at x = 82, with the two faces beside it, the
+/// floor and the light: a sliver in a chain of nearly collinear vertices
+/// 4.3 snap tolerances apart, which no flip or split could fix and the
+/// collapse (then at most 4 snaps) refused.
+const FAR_LEG_CHAIN: &str = "\
+mtllib letters.mtl
+usemtl floor
+v -2 0 -2
+v -2 0 77
+v 114 0 77
+v 114 0 -2
+f 1 2 3 4
+usemtl letter
+v 81.4 0 31.8
+v 81.4 0 31.2
+v 81.4 2 31.2
+v 81.4 2 31.8
+f 5 6 7 8
+usemtl letter
+v 81.4 2 31.8
+v 81.4 2 31.2
+v 81.6 2 31.2
+v 81.6 2 31.8
+f 9 10 11 12
+usemtl letter
+v 81.6 2 31.8
+v 81.6 2 31.2
+v 82.8 0.000000000000001485133 31.2
+v 82.8 0.000000000000001485133 31.8
+f 13 14 15 16
+usemtl light
+v 52 30 33.5
+v 60 30 33.5
+v 60 30 41.5
+v 52 30 41.5
+f 17 18 19 20
+";
+
 const LETTERS_MTL: &str = "newmtl floor\nKd 0.7 0.7 0.7\n\nnewmtl letter\nKd 0.75 0.2 0.15\n\nnewmtl light\nKd 0 0 0\nKe 10 10 10\n";
 
 /// Both shrunk rfield cases mesh soundly with the CPU oracle and the GPU
@@ -237,6 +276,7 @@ fn rfield_slivers_are_repaired() {
         ("far_small_patch", FAR_SMALL_PATCH),
         ("near_corner_sliver", NEAR_CORNER_SLIVER),
         ("collinear_chain", COLLINEAR_CHAIN),
+        ("far_leg_chain", FAR_LEG_CHAIN),
     ] {
         let scene =
             vkrad::scene::load_from_str(name, obj, |_| Some(LETTERS_MTL.to_owned())).unwrap();
