@@ -520,11 +520,13 @@ pub fn run_scene(
                 })
             };
             let vertices = display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len();
-            let mut meter = Meter::new(
-                settings.source_passes * mesh.elements.len() + vertices,
-                &mut tick,
-            );
-            let shaded =
+            // The stage starts now: its rate and ETA count from here.
+            let planned = settings.source_passes * mesh.elements.len() + vertices;
+            let started = tick(0, planned);
+            let mut meter = Meter::new(planned, &mut tick);
+            let shaded = if !started {
+                Shaded::Nothing
+            } else {
                 match FinalGather::metered(&scene, &mesh, &tree, &sources, settings, &mut meter) {
                     None => Shaded::Nothing,
                     Some(gather) => match display.as_mut() {
@@ -547,7 +549,8 @@ pub fn run_scene(
                             None => Shaded::Nothing,
                         },
                     },
-                };
+                }
+            };
             match shaded {
                 Shaded::Done(values) => values,
                 Shaded::Partial(values) => {

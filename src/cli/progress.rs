@@ -90,15 +90,18 @@ impl ProgressLine {
         self.last_draw = now;
         let done_share = (done as f64 / total.max(1) as f64).clamp(0.0, 1.0);
         let t = began.elapsed().as_secs_f64();
-        let eta = if done_share > 0.0 && t > 1.0 {
-            format!("{:.0} s", t * (1.0 - done_share) / done_share)
+        // Rate and ETA once there is a second to judge them by.
+        let (rate, eta) = if done_share > 0.0 && t > 1.0 {
+            (
+                format!("{:.0}", done as f64 / t),
+                format!("{:.0} s", t * (1.0 - done_share) / done_share),
+            )
         } else {
-            "--".into()
+            ("--".into(), "--".into())
         };
         eprint!(
-            "\r  [{}] {stage} {done:>9} / {total} points  {:.0} points/s  ETA {eta}    ",
+            "\r  [{}] {stage} {done:>9} / {total} points  {rate} points/s  ETA {eta}    ",
             bar(done_share),
-            done as f64 / t.max(1e-9),
         );
     }
 
