@@ -530,16 +530,13 @@ pub fn run_scene(
                 match FinalGather::metered(&scene, &mesh, &tree, &sources, settings, &mut meter) {
                     None => Shaded::Nothing,
                     Some(gather) => match display.as_mut() {
-                        Some(display) => {
-                            meter.total -= vertices;
-                            shade_display(
-                                &scene,
-                                &gather,
-                                display,
-                                job.display_refinements,
-                                &mut meter,
-                            )
-                        }
+                        Some(display) => shade_display(
+                            &scene,
+                            &gather,
+                            display,
+                            job.display_refinements,
+                            &mut meter,
+                        ),
                         None => match gather.at_vertices_metered(
                             &mesh,
                             &mut VertexCache::default(),

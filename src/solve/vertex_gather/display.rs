@@ -114,7 +114,8 @@ pub enum Shaded {
 /// Gathers the display mesh's vertices, then (discontinuity display
 /// meshes only) splits its elements where [`split_points`] finds the
 /// Gouraud image wrong and gathers the new vertices; every point is
-/// counted on `meter`.
+/// counted on `meter`, whose total the caller has given the display
+/// mesh's vertices (the refinement passes add their own).
 pub fn shade_display(
     scene: &Scene,
     gather: &FinalGather,
@@ -131,7 +132,6 @@ pub fn shade_display(
         min_edge: display.edge / 8.0,
     };
     let mut cache = VertexCache::default();
-    meter.total += display.mesh.vertices.len();
     let Some(mut values) = gather.at_vertices_metered(&display.mesh, &mut cache, meter) else {
         return Shaded::Nothing;
     };

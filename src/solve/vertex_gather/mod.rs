@@ -180,11 +180,14 @@ pub struct VertexCache {
 
 /// Counts the points gathered, for a progress display: `tick(done,
 /// total)` is called between chunks of points and returns false to stop
-/// (an interrupt), which makes the metered calls return `None`.
+/// (an interrupt), which makes the metered calls return `None`. A caller
+/// counts a mesh's vertices in `total` before gathering at them; the
+/// gather takes back those that smooth groups and the cache spare.
 pub struct Meter<'a> {
     pub done: usize,
     pub total: usize,
-    tick: &'a mut dyn FnMut(usize, usize) -> bool,
+    /// `None`: count, never stop.
+    tick: Option<&'a mut dyn FnMut(usize, usize) -> bool>,
 }
 
 impl<'a> Meter<'a> {
@@ -192,7 +195,16 @@ impl<'a> Meter<'a> {
         Meter {
             done: 0,
             total,
-            tick,
+            tick: Some(tick),
+        }
+    }
+
+    /// A meter that reports to no one and never stops.
+    pub fn unwatched() -> Meter<'static> {
+        Meter {
+            done: 0,
+            total: 0,
+            tick: None,
         }
     }
 
@@ -200,7 +212,10 @@ impl<'a> Meter<'a> {
     fn advance(&mut self, points: usize) -> bool {
         self.done += points;
         self.total = self.total.max(self.done);
-        (self.tick)(self.done, self.total)
+        match &mut self.tick {
+            Some(tick) => tick(self.done, self.total),
+            None => true,
+        }
     }
 }
 
@@ -228,16 +243,15 @@ impl<'a> FinalGather<'a> {
         radiosity: &[[f32; 3]],
         settings: &VertexGather,
     ) -> Self {
-        let mut never = |_: usize, _: usize| true;
         Self::metered(
             scene,
             solved,
             tree,
             radiosity,
             settings,
-            &mut Meter::new(0, &mut never),
+            &mut Meter::unwatched(),
         )
-        .expect("a meter that never stops")
+        .expect("an unwatched meter never stops")
     }
 
     /// [`FinalGather::new`], counting the passes' points on `meter`;
@@ -305,9 +319,8 @@ impl<'a> FinalGather<'a> {
     /// value. Places found in `cache` are not gathered again; new ones are
     /// added to it.
     pub fn at_vertices(&self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
-        let mut never = |_: usize, _: usize| true;
-        self.at_vertices_metered(display, cache, &mut Meter::new(0, &mut never))
-            .expect("a meter that never stops")
+        self.at_vertices_metered(display, cache, &mut Meter::unwatched())
+            .expect("an unwatched meter never stops")
     }
 
     /// [`FinalGather::at_vertices`], counting its points on `meter`; `None`
@@ -365,10 +378,9 @@ impl<'a> FinalGather<'a> {
     /// Radiosity at arbitrary points `(point, normal, patch)` on the front
     /// of their patch.
     pub fn at_points(&self, frames: &[(Vec3, Vec3, u32)]) -> Vec<[f32; 3]> {
-        let mut never = |_: usize, _: usize| true;
         self.gather
-            .at_points(frames, &mut Meter::new(0, &mut never))
-            .expect("a meter that never stops")
+            .at_points(frames, &mut Meter::unwatched())
+            .expect("an unwatched meter never stops")
     }
 
     /// [`FinalGather::at_points`], counting them on `meter`.

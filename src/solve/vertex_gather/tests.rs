@@ -306,8 +306,7 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         min_edge: 0.05,
     };
     let mut checked = refine::Checked::default();
-    let mut never = |_: usize, _: usize| true;
-    let mut meter = Meter::new(0, &mut never);
+    let mut meter = Meter::unwatched();
     let points = refine::split_points(
         &s,
         &display,
