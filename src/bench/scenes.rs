@@ -78,6 +78,7 @@ pub fn plates() -> Scene {
             fov_y_deg: 45.0,
         }),
         warnings: Vec::new(),
+        textures: Vec::new(),
     }
 }
 
@@ -94,6 +95,8 @@ fn patch(name: &str, vertices: &[Vec3], material: usize) -> Patch {
         material,
         name: name.into(),
         line: 0,
+        uv: Vec::new(),
+        texture: None,
     }
 }
 

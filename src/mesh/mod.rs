@@ -118,6 +118,8 @@ pub(crate) mod testutil {
             material: 0,
             name: String::new(),
             line: 0,
+            uv: Vec::new(),
+            texture: None,
         }
     }
 
@@ -133,6 +135,7 @@ pub(crate) mod testutil {
             }],
             camera: None,
             warnings: Vec::new(),
+            textures: Vec::new(),
         }
     }
 

@@ -5,11 +5,11 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 use super::objscan::ObjScan;
 use super::polygon::{self, Fix, Tolerance};
-use super::repair::{Kind, Log};
+use super::repair::{self, Kind, Log};
 use super::{mtl, Material, Patch};
 use crate::error::{Error, Result};
 
@@ -28,11 +28,14 @@ pub(crate) struct Faces {
 }
 
 /// One patch per convex planar piece of every face, with its material
-/// (faces before any `usemtl` get a grey default, with a warning).
+/// (faces before any `usemtl` get a grey default, with a warning) and,
+/// where the material has a texture (`material_texture`, by material) and
+/// the face texture coordinates, the texture coordinates of its corners.
 pub(crate) fn faces_to_patches(
     scan: &ObjScan,
     source: &Path,
     materials: &mut Vec<Material>,
+    material_texture: &[Option<u32>],
 ) -> Result<Faces> {
     let mut warnings = Vec::new();
     let face_material = face_materials(scan, source, materials, &mut warnings)?;
@@ -49,6 +52,8 @@ pub(crate) fn faces_to_patches(
     }
     let mut patches = Vec::with_capacity(scan.faces.len());
     let mut dropped_emitters = Vec::new();
+    // Faces of a textured material without texture coordinates.
+    let mut untextured: Option<(usize, usize)> = None;
     for (f, face) in scan.faces.iter().enumerate() {
         if let Some(g) = copy_of[f] {
             let note = format!("(copy of :{})", scan.faces[g].line);
@@ -77,7 +82,20 @@ pub(crate) fn faces_to_patches(
         if outcome.pieces.is_empty() && emits(f) {
             dropped_emitters.push(face.line);
         }
+        let texture = material_texture.get(face_material[f]).copied().flatten();
+        let face_uv: Option<Vec<Vec2>> = match (&face.texcoords, texture) {
+            (Some(t), Some(_)) => Some(t.iter().map(|&i| scan.texcoords[i]).collect()),
+            (None, Some(_)) if !outcome.pieces.is_empty() => {
+                untextured.get_or_insert((face.line, 0)).1 += 1;
+                None
+            }
+            _ => None,
+        };
         for p in outcome.pieces {
+            let uv = match &face_uv {
+                Some(uv) => polygon::carry_uv(&vertices, uv, &p.vertices, p.normal),
+                None => Vec::new(),
+            };
             patches.push(Patch {
                 vertices: p.vertices,
                 normal: p.normal,
@@ -85,6 +103,8 @@ pub(crate) fn faces_to_patches(
                 material: face_material[f],
                 name: face.name.clone(),
                 line: face.line,
+                texture: if uv.is_empty() { None } else { texture },
+                uv,
             });
         }
     }
@@ -100,6 +120,13 @@ pub(crate) fn faces_to_patches(
         .join("; ");
     let mut all = log.into_warnings();
     all.append(&mut warnings);
+    if let Some((line, count)) = untextured {
+        all.push(format!(
+            "{}:{line}: {} of a textured material have no texture coordinates (`f v/vt ...`); they use Kd alone",
+            source.display(),
+            repair::counted(count, "face", "faces")
+        ));
+    }
     Ok(Faces {
         patches,
         warnings: all,

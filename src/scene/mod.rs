@@ -8,7 +8,7 @@
 
 use std::path::{Path, PathBuf};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
 
@@ -16,11 +16,15 @@ mod faces;
 mod mtl;
 mod objscan;
 mod polygon;
+mod reflectance;
 mod repair;
 #[cfg(test)]
 mod tests;
+mod texture;
 
 pub use polygon::{PLANARITY_TOLERANCE, SCENE_EPSILON};
+pub use reflectance::{ELEMENT_SAMPLING, PATCH_SAMPLING};
+pub use texture::{srgb_to_linear_table, Texture};
 
 /// A diffuse material.
 #[derive(Debug, Clone, PartialEq)]
@@ -52,6 +56,12 @@ pub struct Patch {
     pub name: String,
     /// 1-based line of the `f` statement in the source file.
     pub line: usize,
+    /// Texture coordinates, one per vertex, where the face has them and its
+    /// material a texture (`texture`); else empty.
+    pub uv: Vec<Vec2>,
+    /// Index into `Scene::textures` of the texture that multiplies the
+    /// material's `Kd` on this patch (`map_Kd`), if any.
+    pub texture: Option<u32>,
 }
 
 impl Patch {
@@ -82,6 +92,8 @@ pub struct Scene {
     pub camera: Option<Camera>,
     /// Repairs made while loading (e.g. a non-planar quad split), for the user.
     pub warnings: Vec<String>,
+    /// The `map_Kd` textures the patches use (`Patch::texture`).
+    pub textures: Vec<Texture>,
 }
 
 impl Scene {
@@ -300,7 +312,8 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         ));
     }
 
-    let mut faces = faces::faces_to_patches(&scan, &source, &mut materials)?;
+    let (textures, material_texture) = load_textures(&scan, &table, &mut warnings);
+    let mut faces = faces::faces_to_patches(&scan, &source, &mut materials, &material_texture)?;
     check_emission(&faces, &materials, &table, &source)?;
     let patches = std::mem::take(&mut faces.patches);
     // One warning per mirror, glass or shiny material that a face uses.
@@ -322,6 +335,7 @@ fn load_text(source: PathBuf, name: String, obj: &str, resolve: &MtlResolver) ->
         materials,
         camera: scan.camera.map(|(c, _)| c),
         warnings,
+        textures,
     };
     let dark = emitters_lighting_nothing(&scene);
     for (line, count) in dark {
@@ -344,6 +358,8 @@ struct MaterialTable {
     specular: Vec<Option<String>>,
     /// Why a material without `Ke` looks like a light.
     light_hint: Vec<Option<String>>,
+    /// Its `map_Kd` statement and the MTL file it is in.
+    map_kd: Vec<Option<(PathBuf, mtl::MapKd)>>,
 }
 
 /// The materials of every `mtllib`, in order, and where each was defined.
@@ -404,10 +420,87 @@ fn read_materials(
             table.defined_at.push((path.clone(), entry.line));
             table.specular.push(entry.specular);
             table.light_hint.push(entry.light_hint);
+            table.map_kd.push(entry.map_kd.map(|m| (path.clone(), m)));
         }
     }
 
     Ok(table)
+}
+
+/// The textures of the materials a `usemtl` names, read from their files
+/// (relative to the MTL's folder; on all cores), and each material's
+/// texture. A file that is missing or cannot be decoded is a warning at its
+/// `map_Kd` line, and the material keeps its `Kd` alone.
+fn load_textures(
+    scan: &objscan::ObjScan,
+    table: &MaterialTable,
+    warnings: &mut Vec<String>,
+) -> (Vec<Texture>, Vec<Option<u32>>) {
+    use rayon::prelude::*;
+    let named = |m: &Material| scan.usemtls.iter().any(|u| u.name == m.name);
+    // Each distinct (file, options) once.
+    let mut wanted: Vec<(PathBuf, &mtl::MapKd, &PathBuf)> = Vec::new();
+    let mut which: Vec<Option<usize>> = vec![None; table.materials.len()];
+    for (m, entry) in table.map_kd.iter().enumerate() {
+        let Some((mtl_path, map)) = entry else {
+            continue;
+        };
+        if !named(&table.materials[m]) {
+            continue;
+        }
+        let dir = mtl_path.parent().unwrap_or(Path::new(""));
+        let file = dir.join(&map.file);
+        let same = |w: &(PathBuf, &mtl::MapKd, &PathBuf)| {
+            w.0 == file && (w.1.scale, w.1.offset, w.1.clamp) == (map.scale, map.offset, map.clamp)
+        };
+        which[m] = Some(match wanted.iter().position(same) {
+            Some(i) => i,
+            None => {
+                wanted.push((file, map, mtl_path));
+                wanted.len() - 1
+            }
+        });
+    }
+    let read: Vec<std::result::Result<Texture, String>> = wanted
+        .par_iter()
+        .map(|(file, map, mtl_path)| {
+            if mtl_path.to_string_lossy().starts_with("builtin:") {
+                return Err("built-in scenes have no texture files".to_owned());
+            }
+            let mut t = Texture::load(file.clone()).or_else(|e| {
+                // Files written on Windows name folders with backslashes.
+                let slashed = PathBuf::from(file.to_string_lossy().replace('\\', "/"));
+                if slashed != *file {
+                    Texture::load(slashed).map_err(|_| e)
+                } else {
+                    Err(e)
+                }
+            })?;
+            t.scale = map.scale;
+            t.offset = map.offset;
+            t.clamp = map.clamp;
+            Ok(t)
+        })
+        .collect();
+    let mut textures = Vec::new();
+    let mut index = vec![None; wanted.len()];
+    for (i, (r, (file, map, mtl_path))) in read.into_iter().zip(&wanted).enumerate() {
+        match r {
+            Ok(t) => {
+                index[i] = Some(textures.len() as u32);
+                textures.push(t);
+            }
+            Err(why) => warnings.push(format!(
+                "{}:{}: cannot read texture \"{}\" ({}): {why}; using Kd alone",
+                mtl_path.display(),
+                map.line,
+                map.file,
+                file.display(),
+            )),
+        }
+    }
+    let material_texture = which.iter().map(|w| w.and_then(|i| index[i])).collect();
+    (textures, material_texture)
 }
 
 /// Some face emits, and the total emitted power fits single precision.

@@ -1,7 +1,9 @@
 //! MTL reading: a line pre-scan (for line numbers and syntax), then tobj's
 //! MTL parser for the values, then validation of `Kd` and `Ke`.
 //!
-//! vkrad uses only `Kd` and `Ke`; a bad one is an error at its line. Other
+//! vkrad uses `Kd`, `Ke` and `map_Kd` (a texture that multiplies `Kd`);
+//! a bad `Kd` or `Ke` is an error at its line, a `map_Kd` that names no
+//! file a warning (the texture itself is read by `scene::load`). Other
 //! statements are read, leniently, only to tell the user what vkrad does
 //! not do: a mirror, glass or a shiny material is shaded as diffuse with its
 //! `Kd` (one warning each), and a material that looks like a light but has
@@ -33,6 +35,19 @@ pub(crate) struct MtlEntry {
     pub specular: Option<String>,
     /// Why it looks like a light (`its name`, ...), when it does.
     pub light_hint: Option<String>,
+    /// Its `map_Kd` statement, when it has one that names a file.
+    pub map_kd: Option<MapKd>,
+}
+
+/// A `map_Kd` statement: the file (relative to the MTL's folder), its
+/// options, and its line.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct MapKd {
+    pub file: String,
+    pub scale: glam::Vec2,
+    pub offset: glam::Vec2,
+    pub clamp: bool,
+    pub line: usize,
 }
 
 /// Where one material's statements are, and the values vkrad reads only
@@ -50,6 +65,7 @@ struct Block {
     tr: Option<f32>,
     ni: Option<f32>,
     illum: Option<i64>,
+    map_kd: Option<MapKd>,
 }
 
 /// MTL statements vkrad knows but does not use (compared ignoring case);
@@ -189,6 +205,25 @@ pub(crate) fn read(file: &Path, text: &str, warnings: &mut Vec<String>) -> Resul
                     ("Tr", Some(b)) => b.tr = lenient_number(&values),
                     ("Ni", Some(b)) => b.ni = lenient_number(&values),
                     ("illum", Some(b)) => b.illum = values.first().and_then(|w| w.parse().ok()),
+                    (k, Some(b)) if k.eq_ignore_ascii_case("map_Kd") => {
+                        let rest = line[keyword.len()..].trim();
+                        match super::texture::parse_map_statement(rest) {
+                            Some((file, scale, offset, clamp)) => {
+                                b.map_kd = Some(MapKd {
+                                    file,
+                                    scale,
+                                    offset,
+                                    clamp,
+                                    line: line_no,
+                                })
+                            }
+                            None => warnings.push(format!(
+                                "{}:{line_no}: material \"{}\": `map_Kd` names no texture file; using Kd alone",
+                                file.display(),
+                                b.name
+                            )),
+                        }
+                    }
                     _ => {
                         let k = keyword.to_ascii_lowercase();
                         if !(KNOWN.contains(&k.as_str()) || k.starts_with("map_")) {
@@ -311,6 +346,7 @@ pub(crate) fn read(file: &Path, text: &str, warnings: &mut Vec<String>) -> Resul
             line: b.line,
             specular,
             light_hint,
+            map_kd: b.map_kd,
         });
     }
     Ok(out)

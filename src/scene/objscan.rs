@@ -3,13 +3,14 @@
 //! Reads the statements vkrad needs (`v`, `f`, `o`, `g`, `usemtl`, `mtllib`
 //! and the `# vkrad camera ...` comment), remembers the 1-based line of each,
 //! and checks their syntax, so that every later error can name a line.
-//! Line and point elements (`l`, `p`) are skipped and counted, for a
-//! warning; other statements it does not know (`vt`, `vn`, `s`, ...) are
-//! ignored.
+//! Texture coordinates (`vt`) and each face vertex's `vt` index are kept
+//! for `map_Kd` textures. Line and point elements (`l`, `p`) are skipped
+//! and counted, for a warning; other statements it does not know (`vn`,
+//! `s`, ...) are ignored.
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec3, Vec2};
 
 use super::Camera;
 use crate::error::{Error, Result};
@@ -21,6 +22,9 @@ pub(crate) struct ObjFace {
     pub line: usize,
     /// 0-based indices into `ObjScan::positions`.
     pub vertices: Vec<usize>,
+    /// 0-based indices into `ObjScan::texcoords`, one per vertex, when
+    /// every vertex of the face names one (`v/vt`, `v/vt/vn`).
+    pub texcoords: Option<Vec<usize>>,
     /// Index into `ObjScan::usemtls` of the `usemtl` in effect, if any.
     pub usemtl: Option<usize>,
     /// The last `o` or `g` name seen before the face (may be empty).
@@ -37,6 +41,8 @@ pub(crate) struct Named {
 #[derive(Debug, Clone, Default)]
 pub(crate) struct ObjScan {
     pub positions: Vec<DVec3>,
+    /// `vt u v` (a missing `v` is 0; `w` is ignored).
+    pub texcoords: Vec<Vec2>,
     pub faces: Vec<ObjFace>,
     pub usemtls: Vec<Named>,
     pub mtllibs: Vec<Named>,
@@ -86,6 +92,12 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
                     "a vertex reads `v X Y Z` with three finite numbers within \u{b1}1e9 (an optional fourth is the weight w, or three more are a colour)",
                 )
             })?),
+            "vt" => out.texcoords.push(parse_texcoord(words.collect()).map_err(|what| {
+                err(
+                    what,
+                    "a texture coordinate reads `vt U V` with finite numbers (an optional third, w, is ignored)",
+                )
+            })?),
             "f" => {
                 let refs: Vec<&str> = words.collect();
                 if refs.len() < 3 {
@@ -118,9 +130,16 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
                              negative indices count back from the last vertex (-1 = last)",
                         )
                     })?;
+                let texcoords = face_texcoords(&refs, out.texcoords.len()).map_err(|what| {
+                    err(
+                        what,
+                        "texture coordinate indices (the second number of `v/vt`) start at 1 and may only refer to `vt` lines above the face",
+                    )
+                })?;
                 out.faces.push(ObjFace {
                     line: line_no,
                     vertices,
+                    texcoords,
                     usemtl,
                     name: name.clone(),
                 });
@@ -284,6 +303,58 @@ fn resolve_index(word: &str, count: usize) -> std::result::Result<usize, String>
         return Err(format!("vertex index {i} is out of range: {defined}"));
     }
     Ok(resolved as usize)
+}
+
+/// A `vt` statement's coordinates.
+fn parse_texcoord(words: Vec<&str>) -> std::result::Result<Vec2, String> {
+    if words.is_empty() || words.len() > 3 {
+        return Err(format!(
+            "a texture coordinate has 1 to 3 numbers, this one has {}",
+            words.len()
+        ));
+    }
+    let u = parse_number(words[0])?;
+    let v = match words.get(1) {
+        Some(w) => parse_number(w)?,
+        None => 0.0,
+    };
+    if u.abs().max(v.abs()) > MAX_COORDINATE {
+        return Err(format!(
+            "texture coordinate {:e} is too large",
+            u.abs().max(v.abs())
+        ));
+    }
+    Ok(Vec2::new(u as f32, v as f32))
+}
+
+/// The `vt` indices of a face's vertex references, resolved against the
+/// `count` texture coordinates defined so far; `None` unless every vertex
+/// names one.
+fn face_texcoords(refs: &[&str], count: usize) -> std::result::Result<Option<Vec<usize>>, String> {
+    let mut out = Vec::with_capacity(refs.len());
+    for r in refs {
+        let Some(vt) = r.split('/').nth(1).filter(|s| !s.is_empty()) else {
+            return Ok(None);
+        };
+        let i: i64 = vt
+            .parse()
+            .map_err(|_| format!("`{}` is not a texture coordinate index", shown(r)))?;
+        if i == 0 {
+            return Err("texture coordinate index 0 is invalid (OBJ indices start at 1)".into());
+        }
+        let resolved = if i > 0 {
+            i - 1
+        } else {
+            (count as i64).saturating_add(i)
+        };
+        if resolved < 0 || resolved >= count as i64 {
+            return Err(format!(
+                "texture coordinate index {i} is out of range: {count} `vt` lines are above this line"
+            ));
+        }
+        out.push(resolved as usize);
+    }
+    Ok(Some(out))
 }
 
 fn parse_camera(words: Vec<&str>) -> std::result::Result<Camera, String> {

@@ -386,7 +386,10 @@ fn stray_mtl_lines_warn() {
         warning(&s, "ignored 2 unknown"),
         "ignored 2 unknown statements (t.mtl:4 `v`, :5 `foo`): not MTL statements vkrad knows"
     );
-    assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
+    // A texture that is not there: a warning at its line, and Kd alone.
+    assert!(warning(&s, "t.mtl:6: cannot read texture \"a.png\"").ends_with("using Kd alone"));
+    assert!(s.textures.is_empty() && s.patches.iter().all(|p| p.texture.is_none()));
+    assert_eq!(s.warnings.len(), 3, "{:?}", s.warnings);
 }
 
 #[test]

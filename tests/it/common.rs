@@ -44,6 +44,8 @@ pub fn polygon(vertices: &[Vec3], material: usize) -> Patch {
         material,
         name: String::new(),
         line: 0,
+        uv: Vec::new(),
+        texture: None,
     }
 }
 
@@ -63,6 +65,7 @@ pub fn scene(patches: Vec<Patch>, materials: Vec<Material>) -> Scene {
         materials,
         camera: None,
         warnings: vec![],
+        textures: vec![],
     }
 }
 

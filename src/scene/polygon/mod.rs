@@ -6,7 +6,7 @@
 //! 1e-12 wide is zero-area in a 10 m room whatever its own length. All
 //! geometry here is done in f64 and only rounded to f32 at the end.
 
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec2, DVec3, Vec2, Vec3};
 
 use super::repair::fmt_len;
 use crate::geom::newell;
@@ -215,6 +215,44 @@ fn plane_normal(v: &[DVec3], eps: f64) -> Option<DVec3> {
     } else {
         Some(wide.normalize())
     }
+}
+
+/// The texture coordinates of a piece's corners, from the face's
+/// (`face`, with `uv` per vertex) it was cut from.
+///
+/// Every corner of a piece lies on the face's boundary: it is a vertex of
+/// the face (projected onto the face's plane when the face was planar
+/// within tolerance), or where two of its edges cross (a point on one of
+/// them). So each corner takes the texture coordinates of the boundary
+/// point nearest to it, seen along the piece's normal (which the projection
+/// moved vertices along): a vertex's own, or interpolated along the edge
+/// it lies on. Repeated and straight-run vertices the repair removed and
+/// the splits of concave or non-planar faces need nothing else.
+pub(crate) fn carry_uv(face: &[DVec3], uv: &[Vec2], piece: &[Vec3], normal: Vec3) -> Vec<Vec2> {
+    let n = normal.as_dvec3();
+    let flat = |p: DVec3| p - p.dot(n) * n;
+    let m = face.len();
+    piece
+        .iter()
+        .map(|q| {
+            let q = flat(q.as_dvec3());
+            let mut best = (f64::INFINITY, uv[0]);
+            for i in 0..m {
+                let (a, b) = (flat(face[i]), flat(face[(i + 1) % m]));
+                let ab = b - a;
+                let t = if ab.length_squared() > 0.0 {
+                    ((q - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let d = (a + t * ab).distance_squared(q);
+                if d < best.0 {
+                    best = (d, uv[i].lerp(uv[(i + 1) % m], t as f32));
+                }
+            }
+            best.1
+        })
+        .collect()
 }
 
 /// Validates and repairs one face.
