@@ -6,8 +6,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-use glam::Vec3;
-
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
@@ -20,7 +18,7 @@ use crate::render::{default_camera, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
-use crate::solve::solution::add_ambient;
+use crate::solve::solution::{add_ambient, add_ambient_to_elements};
 use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
 pub use crate::solve::vertex_gather::display::{
     DISPLAY_DISCONTINUITY_MAX_PATCHES, DISPLAY_REFINEMENTS,
@@ -506,10 +504,7 @@ pub fn run_scene(
             // their light before it is gathered.
             let mut sources = solution.radiosity.clone();
             if let Some(a) = ambient {
-                for (e, b) in mesh.elements.iter().zip(&mut sources) {
-                    let rho = scene.patch_material(e.patch).reflectance;
-                    *b = (Vec3::from(*b) + rho * a).to_array();
-                }
+                add_ambient_to_elements(&scene, &mesh, &mut sources, a);
             }
             let tree = ShooterTree::new(&scene, &mesh);
             let mut tick = |done: usize, total: usize| {

@@ -241,8 +241,8 @@ impl Fnv {
 }
 
 /// Hashes what the scene's file (and its MTL) says that matters for the
-/// solution: every patch's vertices and material, every material's values
-/// and the camera. Editing the OBJ or MTL changes it; renaming does not.
+/// solution: every patch's vertices and material (and texture coordinates
+/// and texture), every material's values and the camera. Editing the OBJ or MTL changes it; renaming does not.
 pub fn hash_scene(h: &mut Fnv, scene: &Scene) {
     h.u64(scene.patches.len() as u64);
     for p in &scene.patches {
@@ -251,6 +251,20 @@ pub fn hash_scene(h: &mut Fnv, scene: &Scene) {
             h.vec3(*v);
         }
         h.vec3(p.normal).u64(p.material as u64);
+        // Textured patches: their coordinates and texture.
+        h.u64(p.texture.map_or(u64::MAX, u64::from));
+        for uv in &p.uv {
+            h.f32(uv.x).f32(uv.y);
+        }
+    }
+    for t in &scene.textures {
+        h.u64(u64::from(t.width)).u64(u64::from(t.height));
+        h.f32(t.scale.x)
+            .f32(t.scale.y)
+            .f32(t.offset.x)
+            .f32(t.offset.y);
+        h.u64(u64::from(t.clamp));
+        h.bytes(t.texels.as_flattened());
     }
     h.u64(scene.materials.len() as u64);
     for m in &scene.materials {

@@ -1,7 +1,7 @@
 //! Radiosity at any surface point, gathered from a solved mesh (a "final
 //! gather"): `B(x) = E(x) + rho(x) sum_j B_j F(x <- j)`, every `F` the
 //! exact unoccluded point form factor times the ray-traced visible
-//! fraction. It judges meshes: the a-posteriori refinement compares it
+//! fraction (rho(x): the patch's mean reflectance where it is textured). It judges meshes: the a-posteriori refinement compares it
 //! with the Gouraud interpolation inside each element, and the mesher
 //! benchmark renders its reference image with it.
 //!
@@ -42,6 +42,10 @@ pub struct Gatherer<'a> {
     /// whether it emits.
     sources: Vec<(Shooter, Vec3, bool)>,
     rays: GatherRays,
+    /// Each patch's mean reflectance (textures averaged): the gathered
+    /// radiosity at a point is that of its patch's mean reflectance, as
+    /// the vertex values are.
+    patch_rho: Vec<Vec3>,
 }
 
 impl<'a> Gatherer<'a> {
@@ -67,6 +71,7 @@ impl<'a> Gatherer<'a> {
             occluders: Occluders::new(scene),
             sources,
             rays,
+            patch_rho: scene.patch_reflectances(),
         }
     }
 
@@ -80,9 +85,10 @@ impl<'a> Gatherer<'a> {
     pub fn radiosity_at(&self, p: Vec3, patch: u32, seed: u64) -> Vec3 {
         let surface = &self.scene.patches[patch as usize];
         let material = self.scene.material_of(surface);
+        let rho = self.patch_rho[patch as usize];
         let mut rng = Pcg32::new(seed, u64::from(patch));
         let mut gathered = Vec3::ZERO;
-        if material.reflectance.max_element() > 0.0 {
+        if rho.max_element() > 0.0 {
             for (src, b, emits) in &self.sources {
                 if src.patch == patch {
                     continue;
@@ -103,7 +109,7 @@ impl<'a> Gatherer<'a> {
                 gathered += *b * f;
             }
         }
-        material.emission * std::f32::consts::PI + material.reflectance * gathered
+        material.emission * std::f32::consts::PI + rho * gathered
     }
 
     /// [`Self::radiosity_at`] for many points at once, on all cores.

@@ -4,6 +4,8 @@ use std::ops::Range;
 
 use glam::Vec3;
 
+use crate::scene::{Scene, ELEMENT_SAMPLING};
+
 pub mod build;
 pub mod discontinuity;
 mod junction;
@@ -59,6 +61,31 @@ impl Mesh {
             .iter()
             .map(|e| e.corner_count as usize - 2)
             .sum()
+    }
+
+    /// Each element's mean reflectance: its patch's `Kd`, times the mean of
+    /// the patch's texture over the element where it has one
+    /// ([`Scene::mean_reflectance`]; on all cores).
+    pub fn element_reflectance(&self, scene: &Scene) -> Vec<Vec3> {
+        use rayon::prelude::*;
+        if !scene.has_textures() {
+            return self
+                .elements
+                .iter()
+                .map(|e| scene.patch_material(e.patch).reflectance)
+                .collect();
+        }
+        self.elements
+            .par_iter()
+            .map(|e| {
+                let corners: Vec<Vec3> = e
+                    .corners()
+                    .iter()
+                    .map(|&v| self.vertices[v as usize])
+                    .collect();
+                scene.mean_reflectance(e.patch, &corners, ELEMENT_SAMPLING)
+            })
+            .collect()
     }
 
     /// Per-vertex values for Gouraud display: the area-weighted average of

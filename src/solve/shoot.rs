@@ -59,6 +59,8 @@ impl GpuMesh {
         let mut triangles = Vec::with_capacity(mesh.triangle_count() * 3);
         let mut reflectance_area = Vec::with_capacity(mesh.elements.len());
         let mut emission = Vec::with_capacity(mesh.elements.len());
+        // Each element's mean reflectance (its Kd times its texture's mean).
+        let rho = mesh.element_reflectance(scene);
         for (i, e) in mesh.elements.iter().enumerate() {
             for tri in e.triangles() {
                 for v in tri {
@@ -69,7 +71,7 @@ impl GpuMesh {
                 }
             }
             let m = scene.patch_material(e.patch);
-            reflectance_area.push(m.reflectance.extend(e.area).to_array());
+            reflectance_area.push(rho[i].extend(e.area).to_array());
             // Emitted radiosity E = pi * L_e.
             emission.push((m.emission * std::f32::consts::PI).extend(0.0).to_array());
         }
@@ -203,7 +205,6 @@ pub struct ShotTotals {
 /// keeps what the method accumulates besides the GPU's element radiosity
 /// (the CPU methods' radiosity at the vertices themselves).
 pub struct Shots<'a> {
-    scene: &'a Scene,
     mesh: &'a Mesh,
     hemicube: Hemicube,
     engine: ShootingEngine,
@@ -212,8 +213,9 @@ pub struct Shots<'a> {
     resolutions: Vec<u32>,
     cpu: Option<CpuFormFactors<'a>>,
     tree: ShooterTree,
-    /// The patch of every vertex (vertices belong to one patch).
-    vertex_patch: Vec<u32>,
+    /// The mean reflectance of every vertex's patch (vertices belong to
+    /// one patch): vertex values are radiosities at that reflectance.
+    vertex_reflectance: Vec<glam::Vec3>,
     /// Radiosity at every vertex (CPU methods only: Wallace 1989).
     vertex_radiosity: Option<Vec<[f32; 3]>>,
     /// Batches submitted and not yet waited for, oldest first.
@@ -262,8 +264,17 @@ impl<'a> Shots<'a> {
                 .map(|&p| (scene.patch_material(p).emission * std::f32::consts::PI).to_array())
                 .collect()
         });
+        let vertex_reflectance = match cpu {
+            Some(_) => {
+                let patch_rho = scene.patch_reflectances();
+                vertex_patch
+                    .iter()
+                    .map(|&p| patch_rho[p as usize])
+                    .collect()
+            }
+            None => Vec::new(),
+        };
         Ok(Shots {
-            scene,
             mesh,
             hemicube,
             resolutions: engine.resolutions(),
@@ -271,7 +282,7 @@ impl<'a> Shots<'a> {
             cpu,
             // The engine holds its own copies: keep only the tree.
             tree: gpu_mesh.tree,
-            vertex_patch,
+            vertex_reflectance,
             vertex_radiosity,
             pending: VecDeque::new(),
             strongest_shot: 0.0,
@@ -443,7 +454,7 @@ impl<'a> Shots<'a> {
             // dB_v = rho_v F(v <- i) dB_i, at the vertices themselves.
             for (v, (b, f)) in vb.iter_mut().zip(vff).enumerate() {
                 if f > 0.0 {
-                    let rho = self.scene.patch_material(self.vertex_patch[v]).reflectance;
+                    let rho = self.vertex_reflectance[v];
                     for c in 0..3 {
                         b[c] += rho[c] * f * mean[c];
                     }

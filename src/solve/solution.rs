@@ -77,9 +77,10 @@ impl Solution {
     /// is shown ([`add_ambient`]).
     pub fn ambient(&self, scene: &Scene, mesh: &Mesh) -> Vec3 {
         let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
-        for (e, u) in mesh.elements.iter().zip(&self.unshot) {
+        let element_rho = mesh.element_reflectance(scene);
+        for ((e, u), rho) in mesh.elements.iter().zip(&self.unshot).zip(element_rho) {
             power += Vec3::from(*u) * e.area;
-            reflected += scene.patch_material(e.patch).reflectance * e.area;
+            reflected += rho * e.area;
             area += e.area;
         }
         if area <= 0.0 {
@@ -98,16 +99,31 @@ impl Solution {
 }
 
 /// Adds `rho * ambient` to every vertex's radiosity (vertices belong to one
-/// patch, whose reflectance they take).
+/// patch, whose mean reflectance they take).
 pub fn add_ambient(scene: &Scene, mesh: &Mesh, radiosity: &mut [[f32; 3]], ambient: Vec3) {
     let mut done = vec![false; radiosity.len()];
+    let patch_rho = scene.patch_reflectances();
     for e in &mesh.elements {
-        let rho = scene.patch_material(e.patch).reflectance;
+        let rho = patch_rho[e.patch as usize];
         for &v in e.corners() {
             if !std::mem::replace(&mut done[v as usize], true) {
                 radiosity[v as usize] =
                     (Vec3::from(radiosity[v as usize]) + rho * ambient).to_array();
             }
         }
+    }
+}
+
+/// Adds `rho * ambient` to every element's radiosity, each with its own
+/// mean reflectance.
+pub fn add_ambient_to_elements(
+    scene: &Scene,
+    mesh: &Mesh,
+    radiosity: &mut [[f32; 3]],
+    ambient: Vec3,
+) {
+    let rho = mesh.element_reflectance(scene);
+    for (b, rho) in radiosity.iter_mut().zip(rho) {
+        *b = (Vec3::from(*b) + rho * ambient).to_array();
     }
 }

@@ -289,6 +289,8 @@ impl<'a> FinalGather<'a> {
             sources: first,
             occluders,
             settings: *settings,
+            patch_rho: scene.patch_reflectances(),
+            element_rho: solved.element_reflectance(scene),
         };
         // Each pass at the elements (the centre of their exposed part) is a
         // Jacobi step with exact form factors: it corrects the solve's
@@ -301,7 +303,7 @@ impl<'a> FinalGather<'a> {
             .map(|(e, part)| (part.centre, e.normal, e.patch))
             .collect();
         for _ in 0..settings.source_passes {
-            let mut corrected = gather.at_points(&frames, meter)?;
+            let mut corrected = gather.at_points(&frames, Some(&gather.element_rho), meter)?;
             for (b, part) in corrected.iter_mut().zip(&exposed) {
                 if part.share <= 0.0 {
                     *b = [0.0; 3];
@@ -359,7 +361,7 @@ impl<'a> FinalGather<'a> {
         meter.total = meter
             .total
             .saturating_sub(display.vertices.len() - frames.len());
-        let vals = self.gather.at_points(&frames, meter)?;
+        let vals = self.gather.at_points(&frames, None, meter)?;
         for (&g, value) in todo.iter().zip(vals) {
             cache.values.insert(key(groups.members[g].0), value);
         }
@@ -379,7 +381,7 @@ impl<'a> FinalGather<'a> {
     /// of their patch.
     pub fn at_points(&self, frames: &[(Vec3, Vec3, u32)]) -> Vec<[f32; 3]> {
         self.gather
-            .at_points(frames, &mut Meter::unwatched())
+            .at_points(frames, None, &mut Meter::unwatched())
             .expect("an unwatched meter never stops")
     }
 
@@ -389,7 +391,7 @@ impl<'a> FinalGather<'a> {
         frames: &[(Vec3, Vec3, u32)],
         meter: &mut Meter,
     ) -> Option<Vec<[f32; 3]>> {
-        self.gather.at_points(frames, meter)
+        self.gather.at_points(frames, None, meter)
     }
 }
 
@@ -404,20 +406,37 @@ struct Gather<'a> {
     occluders: Occluders,
     clusters: Clusters,
     settings: VertexGather,
+    /// Mean reflectance per patch and per solved element (textures
+    /// averaged over each): a point's value is its patch's, an element's
+    /// its own.
+    patch_rho: Vec<Vec3>,
+    element_rho: Vec<Vec3>,
 }
 
 impl Gather<'_> {
     /// Radiosity at every frame, in chunks counted on `meter`; `None` when
-    /// it stops them.
-    fn at_points(&self, frames: &[Frame], meter: &mut Meter) -> Option<Vec<[f32; 3]>> {
+    /// it stops them. `rho`: the reflectance of each frame (`None`: its
+    /// patch's mean).
+    fn at_points(
+        &self,
+        frames: &[Frame],
+        rho: Option<&[Vec3]>,
+        meter: &mut Meter,
+    ) -> Option<Vec<[f32; 3]>> {
         let mut out = Vec::with_capacity(frames.len());
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
-            out.par_extend(
-                chunk
-                    .par_iter()
-                    .enumerate()
-                    .map(|(i, frame)| self.at_frame(c * CHUNK + i, frame)),
-            );
+            out.par_extend(chunk.par_iter().enumerate().map(|(i, frame)| {
+                let k = c * CHUNK + i;
+                let rho = match rho {
+                    Some(rho) => rho[k],
+                    None => self
+                        .patch_rho
+                        .get(frame.2 as usize)
+                        .copied()
+                        .unwrap_or_default(),
+                };
+                self.at_frame(k, frame, rho)
+            }));
             if !meter.advance(chunk.len()) {
                 return None;
             }
@@ -425,19 +444,20 @@ impl Gather<'_> {
         Some(out)
     }
 
-    /// Radiosity at frame number `k` (which seeds its rays).
-    fn at_frame(&self, k: usize, &(p, n, patch): &Frame) -> [f32; 3] {
+    /// Radiosity at frame number `k` (which seeds its rays), of
+    /// reflectance `rho`.
+    fn at_frame(&self, k: usize, &(p, n, patch): &Frame, rho: Vec3) -> [f32; 3] {
         let Some(surface) = self.scene.patches.get(patch as usize) else {
             return [0.0; 3];
         };
         let material = self.scene.material_of(surface);
         let mut gathered = Vec3::ZERO;
-        if material.reflectance.max_element() > 0.0 {
+        if rho.max_element() > 0.0 {
             let at = Receiver { p, n, patch };
             let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
             gathered = self.at_point(&at, true, &mut rng);
         }
-        (material.emission * PI + material.reflectance * gathered).to_array()
+        (material.emission * PI + rho * gathered).to_array()
     }
 
     /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
@@ -547,12 +567,16 @@ impl Gather<'_> {
         }
         let surface = &self.scene.patches[node.patch as usize];
         let material = self.scene.material_of(surface);
+        let rho = match node.element {
+            Some(e) => self.element_rho[e as usize],
+            None => self.patch_rho[node.patch as usize],
+        };
         let there = Receiver {
             p: q,
             n: node.normal,
             patch: node.patch,
         };
-        Some(material.emission * PI + material.reflectance * self.at_point(&there, false, rng))
+        Some(material.emission * PI + rho * self.at_point(&there, false, rng))
     }
 }
 
