@@ -7,7 +7,7 @@ use glam::{Mat4, Vec3};
 
 use crate::error::{Error, Result};
 use crate::geom::frustum::perspective;
-use crate::gpu::raster::{render_lit_mesh, LitVertex};
+use crate::gpu::raster::{render_lit_mesh, LitVertex, TextureInfo, Textures};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
@@ -368,6 +368,76 @@ pub fn radiance_of(radiosity: Vec<[f32; 3]>) -> Vec<[f32; 3]> {
         .collect()
 }
 
+/// The mesh's vertices as the final render draws them.
+///
+/// `vertex_radiance` is L = B / pi per vertex, B the radiosity at the mean
+/// reflectance of the vertex's patch (what the solve and the gather give).
+/// On a textured patch the image shows the texture lit by the irradiance
+/// that B stands for: L_e + (L - L_e) x Kd x texel / rho_mean per channel,
+/// rho_mean the patch's mean reflectance (Kd x the texture's mean over
+/// it), so the patch's mean radiance is L.
+pub fn lit_vertices(scene: &Scene, mesh: &Mesh, vertex_radiance: &[[f32; 3]]) -> Vec<LitVertex> {
+    let mut lit: Vec<LitVertex> = mesh
+        .vertices
+        .iter()
+        .zip(vertex_radiance)
+        .map(|(p, l)| LitVertex::plain(p.to_array(), *l))
+        .collect();
+    if !scene.has_textures() {
+        return lit;
+    }
+    let patch_rho = scene.patch_reflectances();
+    for e in &mesh.elements {
+        let patch = &scene.patches[e.patch as usize];
+        let Some(texture) = patch.texture else {
+            continue;
+        };
+        let material = scene.material_of(patch);
+        let rho = patch_rho[e.patch as usize];
+        for &v in e.corners() {
+            let vertex = &mut lit[v as usize];
+            if vertex.texture != crate::gpu::raster::NO_TEXTURE {
+                continue;
+            }
+            let l = Vec3::from(vertex.radiance);
+            let emitted = material.emission;
+            let reflected = (l - emitted).max(Vec3::ZERO);
+            let scale = Vec3::select(
+                rho.cmpgt(Vec3::ZERO),
+                reflected * material.reflectance / rho.max(Vec3::splat(f32::MIN_POSITIVE)),
+                Vec3::ZERO,
+            );
+            let uv = patch.uv_at(mesh.vertices[v as usize]).unwrap_or_default();
+            *vertex = LitVertex {
+                position: vertex.position,
+                radiance: l.min(emitted).to_array(),
+                reflected: scale.to_array(),
+                uv: uv.to_array(),
+                texture,
+            };
+        }
+    }
+    lit
+}
+
+/// The scene's textures as the final render takes them.
+pub fn gpu_textures(scene: &Scene) -> Textures {
+    let mut out = Textures::default();
+    for t in &scene.textures {
+        out.infos.push(TextureInfo {
+            first: out.texels.len() as u32,
+            width: t.width,
+            height: t.height,
+            clamped: u32::from(t.clamp),
+            scale: t.scale.to_array(),
+            shift: t.offset.to_array(),
+        });
+        out.texels
+            .extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
+    }
+    out
+}
+
 /// Every element edge once, as line vertices (radiance 0: black), each end
 /// pulled towards the eye by a thousandth of its distance so the line wins
 /// the depth test against its own surface.
@@ -386,10 +456,7 @@ pub fn wireframe_lines(mesh: &Mesh, eye: Vec3) -> Vec<LitVertex> {
     edges
         .into_iter()
         .flat_map(|(a, b)| [a, b])
-        .map(|v| LitVertex {
-            position: pull(mesh.vertices[v as usize]).to_array(),
-            radiance: [0.0; 3],
-        })
+        .map(|v| LitVertex::plain(pull(mesh.vertices[v as usize]).to_array(), [0.0; 3]))
         .collect()
 }
 
@@ -412,17 +479,14 @@ pub fn render_image(
         )));
     }
     let view_proj = camera_view_proj(camera, width as f32 / height as f32, scene.extent())?;
+    let lit = lit_vertices(scene, mesh, vertex_radiance);
     let mut triangles = Vec::with_capacity(mesh.triangle_count() * 3);
     for e in &mesh.elements {
         for tri in e.triangles() {
-            for v in tri {
-                triangles.push(LitVertex {
-                    position: mesh.vertices[v as usize].to_array(),
-                    radiance: vertex_radiance[v as usize],
-                });
-            }
+            triangles.extend(tri.iter().map(|&v| lit[v as usize]));
         }
     }
+    let textures = gpu_textures(scene);
     let samples = samples_per_pixel(width, height);
     let view_projs: Vec<Mat4> = pixel_samples(samples)
         .into_iter()
@@ -437,6 +501,7 @@ pub fn render_image(
         device,
         &triangles,
         &lines,
+        &textures,
         &view_projs,
         width,
         height,

@@ -15,12 +15,55 @@ use super::profiler::{GpuProfiler, StageTimes};
 use super::shaders;
 use crate::error::Result;
 
-/// A vertex of the lit mesh: position and linear radiance L = B / pi.
+/// A vertex of the lit mesh: position and linear radiance L = B / pi; on
+/// a textured surface the radiance shown is `radiance + reflected x
+/// texel(uv)` of texture number `texture` ([`NO_TEXTURE`]: `radiance`).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct LitVertex {
     pub position: [f32; 3],
     pub radiance: [f32; 3],
+    pub reflected: [f32; 3],
+    pub uv: [f32; 2],
+    pub texture: u32,
+}
+
+/// [`LitVertex::texture`] of an untextured vertex.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+impl LitVertex {
+    /// An untextured vertex.
+    pub fn plain(position: [f32; 3], radiance: [f32; 3]) -> Self {
+        LitVertex {
+            position,
+            radiance,
+            reflected: [0.0; 3],
+            uv: [0.0; 2],
+            texture: NO_TEXTURE,
+        }
+    }
+}
+
+/// Where one texture's texels lie in [`Textures::texels`] and how its
+/// coordinates map (mirrors `TextureInfo` in `glsl/render.frag`).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct TextureInfo {
+    pub first: u32,
+    pub width: u32,
+    pub height: u32,
+    /// 1: coordinates clamp to the edge texels; 0: they repeat.
+    pub clamped: u32,
+    pub scale: [f32; 2],
+    pub shift: [f32; 2],
+}
+
+/// The textures of a render: their texels one after the other (RGBA8
+/// sRGB, red in the low byte, top row first).
+#[derive(Debug, Clone, Default)]
+pub struct Textures {
+    pub infos: Vec<TextureInfo>,
+    pub texels: Vec<u32>,
 }
 
 const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
@@ -36,6 +79,7 @@ pub fn render_lit_mesh(
     device: &Arc<Device>,
     triangles: &[LitVertex],
     lines: &[LitVertex],
+    textures: &Textures,
     view_projs: &[glam::Mat4],
     width: u32,
     height: u32,
@@ -51,7 +95,40 @@ pub fn render_lit_mesh(
         triangles,
         vk::BufferUsageFlags::VERTEX_BUFFER,
     )?;
-    let bindings = Bindings::new(device, "final render bindings", &[], 64)?;
+    // Storage buffers may not be empty: one unused entry where there is
+    // no texture.
+    let no_info = [<TextureInfo as bytemuck::Zeroable>::zeroed()];
+    let infos = upload(
+        device,
+        "texture infos",
+        if textures.infos.is_empty() {
+            &no_info[..]
+        } else {
+            &textures.infos
+        },
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )?;
+    let texels = upload(
+        device,
+        "texture texels",
+        if textures.texels.is_empty() {
+            &[0u32][..]
+        } else {
+            &textures.texels
+        },
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+    )?;
+    let bindings = Bindings::new(
+        device,
+        "final render bindings",
+        &[
+            (0, vk::DescriptorType::STORAGE_BUFFER),
+            (1, vk::DescriptorType::STORAGE_BUFFER),
+        ],
+        64,
+    )?;
+    bindings.bind_buffer(0, vk::DescriptorType::STORAGE_BUFFER, infos.raw());
+    bindings.bind_buffer(1, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
     let desc = |topology| GraphicsDesc {
         vertex: shaders::RENDER_VERT,
         fragment: shaders::RENDER_FRAG,
@@ -59,6 +136,9 @@ pub fn render_lit_mesh(
         attributes: &[
             (0, vk::Format::R32G32B32_SFLOAT, 0),
             (1, vk::Format::R32G32B32_SFLOAT, 12),
+            (2, vk::Format::R32G32B32_SFLOAT, 24),
+            (3, vk::Format::R32G32_SFLOAT, 36),
+            (4, vk::Format::R32_UINT, 44),
         ],
         color_format: COLOR_FORMAT,
         depth_format: DEPTH_FORMAT,
@@ -120,6 +200,14 @@ pub fn render_lit_mesh(
                 false,
             );
             raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+            raw.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                bindings.layout,
+                0,
+                &[bindings.set],
+                &[],
+            );
             set_viewport(device, cmd, (0, 0, width, height));
             raw.cmd_push_constants(
                 cmd,
