@@ -12,9 +12,8 @@ use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshReport, MeshSettings, Mesher};
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
-use crate::output::mesh_export::export_mesh;
 use crate::output::tonemap::auto_exposure;
-use crate::render::{default_camera, render_image};
+use crate::render::{default_camera, export_lit_mesh, render_image};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
@@ -584,7 +583,7 @@ pub fn run_scene(
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
     save_image(&image, &output, Some(exposure))?;
     if let Some(export) = &job.export {
-        export_mesh(export, shown_mesh, &shown, exposure)?;
+        export_lit_mesh(export, &scene, shown_mesh, &shown, exposure)?;
     }
     wall.push(("write", t.elapsed().as_secs_f64()));
     device.check_validation()?;

@@ -7,11 +7,14 @@ use glam::{Mat4, Vec3};
 
 use crate::error::{Error, Result};
 use crate::geom::frustum::perspective;
-use crate::gpu::raster::{render_lit_mesh, LitVertex, TextureInfo, Textures};
+use crate::gpu::raster::{render_lit_mesh, LitVertex};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::{Camera, Scene};
+
+mod textured;
+pub use textured::{export_lit_mesh, gpu_textures, lit_vertices};
 
 /// Samples per pixel: the image is rendered once per sample, each pass
 /// shifted by a sub-pixel offset, and the passes are averaged (a box
@@ -366,76 +369,6 @@ pub fn radiance_of(radiosity: Vec<[f32; 3]>) -> Vec<[f32; 3]> {
         .into_iter()
         .map(|b| (Vec3::from(b) / std::f32::consts::PI).to_array())
         .collect()
-}
-
-/// The mesh's vertices as the final render draws them.
-///
-/// `vertex_radiance` is L = B / pi per vertex, B the radiosity at the mean
-/// reflectance of the vertex's patch (what the solve and the gather give).
-/// On a textured patch the image shows the texture lit by the irradiance
-/// that B stands for: L_e + (L - L_e) x Kd x texel / rho_mean per channel,
-/// rho_mean the patch's mean reflectance (Kd x the texture's mean over
-/// it), so the patch's mean radiance is L.
-pub fn lit_vertices(scene: &Scene, mesh: &Mesh, vertex_radiance: &[[f32; 3]]) -> Vec<LitVertex> {
-    let mut lit: Vec<LitVertex> = mesh
-        .vertices
-        .iter()
-        .zip(vertex_radiance)
-        .map(|(p, l)| LitVertex::plain(p.to_array(), *l))
-        .collect();
-    if !scene.has_textures() {
-        return lit;
-    }
-    let patch_rho = scene.patch_reflectances();
-    for e in &mesh.elements {
-        let patch = &scene.patches[e.patch as usize];
-        let Some(texture) = patch.texture else {
-            continue;
-        };
-        let material = scene.material_of(patch);
-        let rho = patch_rho[e.patch as usize];
-        for &v in e.corners() {
-            let vertex = &mut lit[v as usize];
-            if vertex.texture != crate::gpu::raster::NO_TEXTURE {
-                continue;
-            }
-            let l = Vec3::from(vertex.radiance);
-            let emitted = material.emission;
-            let reflected = (l - emitted).max(Vec3::ZERO);
-            let scale = Vec3::select(
-                rho.cmpgt(Vec3::ZERO),
-                reflected * material.reflectance / rho.max(Vec3::splat(f32::MIN_POSITIVE)),
-                Vec3::ZERO,
-            );
-            let uv = patch.uv_at(mesh.vertices[v as usize]).unwrap_or_default();
-            *vertex = LitVertex {
-                position: vertex.position,
-                radiance: l.min(emitted).to_array(),
-                reflected: scale.to_array(),
-                uv: uv.to_array(),
-                texture,
-            };
-        }
-    }
-    lit
-}
-
-/// The scene's textures as the final render takes them.
-pub fn gpu_textures(scene: &Scene) -> Textures {
-    let mut out = Textures::default();
-    for t in &scene.textures {
-        out.infos.push(TextureInfo {
-            first: out.texels.len() as u32,
-            width: t.width,
-            height: t.height,
-            clamped: u32::from(t.clamp),
-            scale: t.scale.to_array(),
-            shift: t.offset.to_array(),
-        });
-        out.texels
-            .extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
-    }
-    out
 }
 
 /// Every element edge once, as line vertices (radiance 0: black), each end

@@ -15,8 +15,18 @@
 //!   triangles), and a white material with `KHR_materials_unlit` so that
 //!   viewers show the baked colour unshaded (viewers without the extension
 //!   fall back to its plain white base colour, lit).
+//!
+//! With textures ([`TexturedLayer`]) the elements of each texture are a
+//! primitive of their own, with `TEXCOORD_0` and an unlit material whose
+//! `baseColorTexture` is the texture (embedded as PNG, sampler repeat or
+//! clamp); their `COLOR_0` is then the light the texture multiplies (Kd x
+//! irradiance / pi over the texture's mean, exposed and clamped), so that
+//! the viewer's colour texel x `COLOR_0` is the image's texture x
+//! irradiance. All primitives share the vertex accessors.
 
 use std::io::Write;
+
+use std::f32::consts::PI;
 
 use glam::Vec3;
 use serde_json::{json, Value};
@@ -35,6 +45,31 @@ const GLB_MAGIC: u32 = 0x4654_6C67;
 const GLB_VERSION: u32 = 2;
 const CHUNK_JSON: u32 = 0x4E4F_534A;
 const CHUNK_BIN: u32 = 0x004E_4942;
+
+const REPEAT: u32 = 10497;
+const CLAMP_TO_EDGE: u32 = 33071;
+const LINEAR: u32 = 9729;
+
+/// An image to embed.
+#[derive(Debug, Clone)]
+pub struct EmbeddedImage {
+    pub name: String,
+    /// The PNG file's bytes.
+    pub png: Vec<u8>,
+    /// Coordinates clamp to the edge texels (else they repeat).
+    pub clamp: bool,
+}
+
+/// The textured part of a lit mesh: per vertex its texture coordinates
+/// (glTF's: origin at the image's top-left) and the radiance the texture
+/// multiplies there; per element its texture (`u32::MAX`: none).
+#[derive(Debug, Clone, Default)]
+pub struct TexturedLayer {
+    pub uv: Vec<[f32; 2]>,
+    pub multiplier: Vec<[f32; 3]>,
+    pub element_texture: Vec<u32>,
+    pub images: Vec<EmbeddedImage>,
+}
 
 /// The `COLOR_0` of a radiosity: B/pi exposed, clamped to [0, 1], linear
 /// (NaN to 0).
@@ -93,6 +128,41 @@ impl Builder {
         self.accessors.len() - 1
     }
 
+    /// Raw bytes (an image) as a buffer view without a target; its index.
+    fn blob(&mut self, bytes: &[u8]) -> usize {
+        self.views.push(json!({
+            "buffer": 0,
+            "byteOffset": self.bin.len(),
+            "byteLength": bytes.len(),
+        }));
+        self.bin.extend_from_slice(bytes);
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        self.views.len() - 1
+    }
+
+    fn vec2(&mut self, values: &[[f32; 2]]) -> usize {
+        let accessor = json!({
+            "componentType": FLOAT,
+            "count": values.len(),
+            "type": "VEC2",
+        });
+        self.push(bytemuck::cast_slice(values), ARRAY_BUFFER, accessor)
+    }
+
+    fn indices(&mut self, indices: &[u32]) -> usize {
+        self.push(
+            bytemuck::cast_slice(indices),
+            ELEMENT_ARRAY_BUFFER,
+            json!({
+                "componentType": UNSIGNED_INT,
+                "count": indices.len(),
+                "type": "SCALAR",
+            }),
+        )
+    }
+
     fn vec3(&mut self, values: &[[f32; 3]], bounds: bool) -> usize {
         let mut accessor = json!({
             "componentType": FLOAT,
@@ -116,7 +186,13 @@ impl Builder {
     }
 }
 
-fn build(mesh: &Mesh, radiosity: &[[f32; 3]], exposure: f32, name: &str) -> Gltf {
+fn build(
+    mesh: &Mesh,
+    radiosity: &[[f32; 3]],
+    exposure: f32,
+    name: &str,
+    textured: Option<&TexturedLayer>,
+) -> Gltf {
     let mut b = Builder {
         bin: Vec::new(),
         views: Vec::new(),
@@ -124,30 +200,98 @@ fn build(mesh: &Mesh, radiosity: &[[f32; 3]], exposure: f32, name: &str) -> Gltf
     };
     let positions: Vec<[f32; 3]> = mesh.vertices.iter().map(|v| v.to_array()).collect();
     let normals: Vec<[f32; 3]> = vertex_normals(mesh).iter().map(Vec3::to_array).collect();
-    let colours: Vec<[f32; 3]> = radiosity
+    // Each element's texture (none without a layer).
+    let texture_of = |e: usize| textured.map_or(u32::MAX, |t| t.element_texture[e]);
+    let mut colours: Vec<[f32; 3]> = radiosity
         .iter()
         .map(|&r| display_colour(r, exposure))
         .collect();
-    let indices: Vec<u32> = mesh
-        .elements
-        .iter()
-        .flat_map(|e| e.triangles())
-        .flatten()
-        .collect();
+    if let Some(t) = textured {
+        // Vertices belong to one patch: a textured element's vertices show
+        // the light its texture multiplies.
+        for (i, e) in mesh.elements.iter().enumerate() {
+            if t.element_texture[i] != u32::MAX {
+                for &c in e.corners() {
+                    colours[c as usize] =
+                        display_colour(t.multiplier[c as usize].map(|l| l * PI), exposure);
+                }
+            }
+        }
+    }
+    // One list of triangles per texture, the untextured ones first.
+    let layers = textured.map_or(0, |t| t.images.len());
+    let mut lists: Vec<Vec<u32>> = vec![Vec::new(); layers + 1];
+    for (i, e) in mesh.elements.iter().enumerate() {
+        let list = match texture_of(i) {
+            u32::MAX => 0,
+            t => t as usize + 1,
+        };
+        lists[list].extend(e.triangles().flatten());
+    }
     let position = b.vec3(&positions, true);
     let normal = b.vec3(&normals, false);
     let colour = b.vec3(&colours, false);
     let radiosity_accessor = b.vec3(radiosity, false);
-    let index = b.push(
-        bytemuck::cast_slice(&indices),
-        ELEMENT_ARRAY_BUFFER,
-        json!({
-            "componentType": UNSIGNED_INT,
-            "count": indices.len(),
-            "type": "SCALAR",
-        }),
-    );
-    let json = json!({
+    let texcoord = textured.map(|t| b.vec2(&t.uv));
+    let mut primitives = Vec::new();
+    let mut materials = vec![json!({
+        "name": "radiosity (baked vertex colour)",
+        "pbrMetallicRoughness": {
+            "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+            "metallicFactor": 0.0,
+            "roughnessFactor": 1.0,
+        },
+        "extensions": { "KHR_materials_unlit": {} },
+    })];
+    let (mut images, mut samplers, mut textures) = (Vec::new(), Vec::new(), Vec::new());
+    for (list, indices) in lists.iter().enumerate() {
+        // glTF accessors hold at least one element; a texture no element
+        // uses has no primitive (the untextured list may be empty too).
+        if indices.is_empty() {
+            continue;
+        }
+        let index = b.indices(indices);
+        let mut attributes = json!({
+            "POSITION": position,
+            "NORMAL": normal,
+            "COLOR_0": colour,
+            "_RADIOSITY": radiosity_accessor,
+        });
+        let material = if list == 0 {
+            0
+        } else {
+            let image = &textured.expect("a texture list has a layer").images[list - 1];
+            attributes["TEXCOORD_0"] = json!(texcoord);
+            let view = b.blob(&image.png);
+            images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": image.name }));
+            let wrap = if image.clamp { CLAMP_TO_EDGE } else { REPEAT };
+            samplers.push(json!({
+                "magFilter": LINEAR,
+                "minFilter": LINEAR,
+                "wrapS": wrap,
+                "wrapT": wrap,
+            }));
+            textures.push(json!({ "sampler": samplers.len() - 1, "source": images.len() - 1 }));
+            materials.push(json!({
+                "name": format!("texture {} x radiosity (baked vertex colour)", image.name),
+                "pbrMetallicRoughness": {
+                    "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+                    "baseColorTexture": { "index": textures.len() - 1 },
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 1.0,
+                },
+                "extensions": { "KHR_materials_unlit": {} },
+            }));
+            materials.len() - 1
+        };
+        primitives.push(json!({
+            "attributes": attributes,
+            "indices": index,
+            "material": material,
+            "mode": TRIANGLES,
+        }));
+    }
+    let mut json = json!({
         "asset": {
             "version": "2.0",
             "generator": concat!("vkrad ", env!("CARGO_PKG_VERSION")),
@@ -158,36 +302,25 @@ fn build(mesh: &Mesh, radiosity: &[[f32; 3]], exposure: f32, name: &str) -> Gltf
         "nodes": [{ "mesh": 0, "name": name }],
         "meshes": [{
             "name": name,
-            "primitives": [{
-                "attributes": {
-                    "POSITION": position,
-                    "NORMAL": normal,
-                    "COLOR_0": colour,
-                    "_RADIOSITY": radiosity_accessor,
-                },
-                "indices": index,
-                "material": 0,
-                "mode": TRIANGLES,
-            }],
+            "primitives": primitives,
             "extras": {
                 "COLOR_0": "radiance L = B/pi times exposure, clamped to [0, 1], linear",
                 "_RADIOSITY": "linear radiosity B = pi L",
                 "exposure": f64::from(exposure),
             },
         }],
-        "materials": [{
-            "name": "radiosity (baked vertex colour)",
-            "pbrMetallicRoughness": {
-                "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                "metallicFactor": 0.0,
-                "roughnessFactor": 1.0,
-            },
-            "extensions": { "KHR_materials_unlit": {} },
-        }],
+        "materials": materials,
         "buffers": [{ "byteLength": b.bin.len() }],
         "bufferViews": b.views,
         "accessors": b.accessors,
     });
+    if !images.is_empty() {
+        json["images"] = json!(images);
+        json["samplers"] = json!(samplers);
+        json["textures"] = json!(textures);
+        json["meshes"][0]["extras"]["COLOR_0 (textured)"] =
+            json!("the light the texture multiplies: Kd x irradiance / pi over the texture's mean, times exposure, clamped to [0, 1], linear");
+    }
     Gltf { json, bin: b.bin }
 }
 
@@ -199,8 +332,9 @@ pub(super) fn write_glb(
     radiosity: &[[f32; 3]],
     exposure: f32,
     name: &str,
+    textured: Option<&TexturedLayer>,
 ) -> std::io::Result<()> {
-    let Gltf { json, mut bin } = build(mesh, radiosity, exposure, name);
+    let Gltf { json, mut bin } = build(mesh, radiosity, exposure, name, textured);
     let mut text = json.to_string().into_bytes();
     while text.len() % 4 != 0 {
         text.push(b' ');
@@ -234,8 +368,9 @@ pub(super) fn write_gltf(
     radiosity: &[[f32; 3]],
     exposure: f32,
     name: &str,
+    textured: Option<&TexturedLayer>,
 ) -> std::io::Result<()> {
-    let Gltf { mut json, bin } = build(mesh, radiosity, exposure, name);
+    let Gltf { mut json, bin } = build(mesh, radiosity, exposure, name, textured);
     json["buffers"][0]["uri"] = json!(format!(
         "data:application/octet-stream;base64,{}",
         base64(&bin)

@@ -90,8 +90,35 @@ pub fn export_mesh(
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
 ) -> Result<()> {
+    export_textured_mesh(path, mesh, vertex_radiosity, exposure, None)
+}
+
+/// [`export_mesh`], with the textures of a glTF export (`.ply` and `.obj`
+/// take only the vertex values).
+pub fn export_textured_mesh(
+    path: &Path,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+    exposure: f32,
+    textured: Option<&gltf::TexturedLayer>,
+) -> Result<()> {
     let format = mesh_format(path)?;
     validate(path, mesh, vertex_radiosity)?;
+    if let Some(t) = textured {
+        let n = mesh.vertices.len();
+        if t.uv.len() != n
+            || t.multiplier.len() != n
+            || t.element_texture.len() != mesh.elements.len()
+            || t.element_texture
+                .iter()
+                .any(|&k| k != u32::MAX && k as usize >= t.images.len())
+        {
+            return Err(Error::Output {
+                path: path.to_path_buf(),
+                what: "the texture layer does not match the mesh".to_owned(),
+            });
+        }
+    }
     let io = |e: std::io::Error| Error::io(path, e);
     match format {
         MeshFormat::Ply => {
@@ -120,9 +147,9 @@ pub fn export_mesh(
                 .map_or_else(|| "vkrad".into(), |s| s.to_string_lossy());
             write_atomically(path, |w| {
                 if format == MeshFormat::Glb {
-                    gltf::write_glb(w, mesh, vertex_radiosity, exposure, &name)
+                    gltf::write_glb(w, mesh, vertex_radiosity, exposure, &name, textured)
                 } else {
-                    gltf::write_gltf(w, mesh, vertex_radiosity, exposure, &name)
+                    gltf::write_gltf(w, mesh, vertex_radiosity, exposure, &name, textured)
                 }
                 .map_err(io)
             })
