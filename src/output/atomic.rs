@@ -1,6 +1,11 @@
 //! Whole-or-nothing file writes: a temporary file next to the target
 //! (`tempfile`: a unique name, removed when dropped on any error), flushed
 //! and fsynced, then renamed over the target.
+//!
+//! The file gets the permissions any other tool's would: a new one those
+//! the process's umask leaves of rw-rw-rw- (as `File::create`), one that
+//! replaces a file the old file's (as `File::create`, which truncates it).
+//! `tempfile` alone makes its files rw------- (private scratch files).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -37,16 +42,25 @@ pub fn write_atomically(
         path: path.to_path_buf(),
         what: "the path does not name a file".to_owned(),
     })?;
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{}.", name.to_string_lossy()))
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| Error::Output {
-            path: path.to_path_buf(),
-            what: format!("cannot create a temporary file in {}: {e}", dir.display()),
-        })?;
+    let prefix = format!(".{}.", name.to_string_lossy());
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(&prefix).suffix(".tmp");
+    // Created rw-rw-rw- less the umask, as `File::create` does.
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let tmp = builder.tempfile_in(dir).map_err(|e| Error::Output {
+        path: path.to_path_buf(),
+        what: format!("cannot create a temporary file in {}: {e}", dir.display()),
+    })?;
     let tmp_path = tmp.path().to_path_buf();
     let (file, tmp_path_guard) = tmp.into_parts();
+    // A file it replaces keeps its permissions.
+    if let Ok(old) = std::fs::metadata(path) {
+        if old.is_file() {
+            file.set_permissions(old.permissions())
+                .map_err(|e| Error::io(&tmp_path, e))?;
+        }
+    }
     let mut writer = BufWriter::new(file);
     write(&mut writer)?;
     writer.flush().map_err(|e| Error::io(&tmp_path, e))?;
@@ -109,6 +123,31 @@ mod tests {
         .unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"bye");
         assert_eq!(entries(&dir), vec!["out.txt".to_owned()]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn written_files_take_the_permissions_file_create_gives() {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o7777;
+        let dir = scratch_dir("mode");
+        // What the umask makes of a new file, as other tools write it.
+        let plain = dir.join("plain.txt");
+        File::create(&plain).unwrap();
+        let path = dir.join("out.txt");
+        write_atomically(&path, |w| {
+            w.write_all(b"x").map_err(|e| Error::io("out.txt", e))
+        })
+        .unwrap();
+        assert_eq!(mode(&path), mode(&plain), "{:o}", mode(&path));
+        // A file it replaces keeps its own.
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write_atomically(&path, |w| {
+            w.write_all(b"y").map_err(|e| Error::io("out.txt", e))
+        })
+        .unwrap();
+        assert_eq!(mode(&path), 0o640);
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

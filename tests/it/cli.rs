@@ -207,6 +207,63 @@ fn renders_and_exports_a_small_scene() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Images and meshes come out with the permissions the umask gives (issue
+/// 19, item 6: they were rw------- whatever the umask, the atomic write's
+/// temporary file's), and a file they replace keeps its own.
+#[cfg(unix)]
+#[test]
+fn written_files_follow_the_umask() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("umask");
+    let mode = |name: &str| {
+        std::fs::metadata(dir.join(name))
+            .unwrap()
+            .permissions()
+            .mode()
+            & 0o7777
+    };
+    let run = |umask: &str| {
+        // The shell sets the umask of the vkrad it runs, not of this process.
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "umask {umask} && exec \"$0\" simple -o simple.png --export simple.glb --size 32x24 --hemicube-res 32 --no-final-gather"
+            ))
+            .arg(env!("CARGO_BIN_EXE_vkrad"))
+            .current_dir(&dir)
+            .output()
+            .expect("run vkrad through sh");
+        assert!(out.status.success(), "vkrad failed:\n{}", stderr(&out));
+    };
+    for (umask, want) in [("0027", 0o640), ("0002", 0o664)] {
+        let _ = std::fs::remove_file(dir.join("simple.png"));
+        let _ = std::fs::remove_file(dir.join("simple.glb"));
+        run(umask);
+        assert_eq!(
+            mode("simple.png"),
+            want,
+            "umask {umask}: {:o}",
+            mode("simple.png")
+        );
+        assert_eq!(
+            mode("simple.glb"),
+            want,
+            "umask {umask}: {:o}",
+            mode("simple.glb")
+        );
+    }
+    // Replaced files keep the mode they had.
+    std::fs::set_permissions(
+        dir.join("simple.png"),
+        std::fs::Permissions::from_mode(0o604),
+    )
+    .unwrap();
+    run("0077");
+    assert_eq!(mode("simple.png"), 0o604);
+    assert_eq!(mode("simple.glb"), 0o664);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn formfactors_json_is_a_square_matrix() {
     let dir = temp_dir("ff");
