@@ -21,7 +21,7 @@ fn u32_at(bytes: &[u8], at: usize) -> u32 {
 }
 
 /// The JSON and BIN chunks of a `.glb`, after checking its framing.
-fn read_glb(bytes: &[u8]) -> (Value, Vec<u8>) {
+pub(crate) fn read_glb(bytes: &[u8]) -> (Value, Vec<u8>) {
     assert!(bytes.len() >= 28, "{} bytes", bytes.len());
     assert_eq!(&bytes[0..4], b"glTF");
     assert_eq!(u32_at(bytes, 4), 2, "version");
