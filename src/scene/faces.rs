@@ -122,7 +122,7 @@ pub(crate) fn faces_to_patches(
     all.append(&mut warnings);
     if let Some((line, count)) = untextured {
         all.push(format!(
-            "{}:{line}: {} of a textured material have no texture coordinates (`f v/vt ...`); they use Kd alone",
+            "{}:{line}: {} of a textured material without texture coordinates (`f v/vt ...`): Kd alone there",
             source.display(),
             repair::counted(count, "face", "faces")
         ));
