@@ -96,7 +96,7 @@ impl Scene {
         for k in 1..polygon.len().saturating_sub(1) {
             let (a, b, c) = (polygon[0], polygon[k], polygon[k + 1]);
             let tri_area = 0.5 * (b - a).cross(c - a).length();
-            if !(tri_area > 0.0) {
+            if tri_area.is_nan() || tri_area <= 0.0 {
                 continue;
             }
             let texels = texture.texels_in(uv(a), uv(b), uv(c));
