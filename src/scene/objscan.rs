@@ -130,12 +130,7 @@ pub(crate) fn scan(file: &Path, text: &str) -> Result<ObjScan> {
                              negative indices count back from the last vertex (-1 = last)",
                         )
                     })?;
-                let texcoords = face_texcoords(&refs, out.texcoords.len()).map_err(|what| {
-                    err(
-                        what,
-                        "texture coordinate indices (the second number of `v/vt`) start at 1 and may only refer to `vt` lines above the face",
-                    )
-                })?;
+                let texcoords = face_texcoords(&refs, out.texcoords.len());
                 out.faces.push(ObjFace {
                     line: line_no,
                     vertices,
@@ -329,32 +324,23 @@ fn parse_texcoord(words: Vec<&str>) -> std::result::Result<Vec2, String> {
 
 /// The `vt` indices of a face's vertex references, resolved against the
 /// `count` texture coordinates defined so far; `None` unless every vertex
-/// names one.
-fn face_texcoords(refs: &[&str], count: usize) -> std::result::Result<Option<Vec<usize>>, String> {
-    let mut out = Vec::with_capacity(refs.len());
-    for r in refs {
-        let Some(vt) = r.split('/').nth(1).filter(|s| !s.is_empty()) else {
-            return Ok(None);
-        };
-        let i: i64 = vt
-            .parse()
-            .map_err(|_| format!("`{}` is not a texture coordinate index", shown(r)))?;
-        if i == 0 {
-            return Err("texture coordinate index 0 is invalid (OBJ indices start at 1)".into());
-        }
-        let resolved = if i > 0 {
-            i - 1
-        } else {
-            (count as i64).saturating_add(i)
-        };
-        if resolved < 0 || resolved >= count as i64 {
-            return Err(format!(
-                "texture coordinate index {i} is out of range: {count} `vt` lines are above this line"
-            ));
-        }
-        out.push(resolved as usize);
-    }
-    Ok(Some(out))
+/// names a valid one. Files that name texture coordinates they do not
+/// define load as they did before vkrad read `vt`: such a face has none
+/// (which matters, with a warning, only where its material is textured).
+fn face_texcoords(refs: &[&str], count: usize) -> Option<Vec<usize>> {
+    refs.iter()
+        .map(|r| {
+            let i: i64 = r.split('/').nth(1)?.parse().ok()?;
+            let resolved = match i {
+                0 => return None,
+                i if i > 0 => i - 1,
+                i => (count as i64).saturating_add(i),
+            };
+            (0..count as i64)
+                .contains(&resolved)
+                .then_some(resolved as usize)
+        })
+        .collect()
 }
 
 fn parse_camera(words: Vec<&str>) -> std::result::Result<Camera, String> {
