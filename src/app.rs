@@ -12,6 +12,7 @@ use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshReport, MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::mesh_export::export_mesh;
@@ -21,10 +22,8 @@ use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
 use crate::solve::solution::add_ambient;
+pub use crate::solve::vertex_gather::display::DISPLAY_REFINEMENTS;
 use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
-pub use crate::solve::vertex_gather::display::{
-    DISPLAY_DISCONTINUITY_MAX_PATCHES, DISPLAY_REFINEMENTS,
-};
 use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
 
@@ -349,6 +348,7 @@ pub fn mesh_settings(job: &Job, scene: &Scene) -> MeshSettings {
             .max_edge
             .unwrap_or_else(|| mesh::default_max_edge(scene)),
         dm_res: job.dm_res,
+        detail: ShadowDetail::Full,
     }
 }
 

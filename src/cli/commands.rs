@@ -16,6 +16,7 @@ use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTER
 use vkrad::app::{run_scene, CameraOverride, Job};
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::mesh::discontinuity::ShadowDetail;
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
 use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
@@ -179,6 +180,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
             .max_edge
             .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene)),
         dm_res: args.mesh.dm_res,
+        detail: ShadowDetail::Full,
     };
     let (mesh, report) = build_mesh(&device, &scene, &settings)?;
     check_mesh(&mesh, &scene, settings.mesher)?;
