@@ -280,6 +280,12 @@ pub(crate) struct RenderArgs {
     /// Write settings, results and per-pass timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub(crate) report: Option<PathBuf>,
+    /// Write a timeline of the run in the Chrome trace-event format
+    /// (Perfetto, chrome://tracing): the CPU stages and each batch's pick,
+    /// record, submit and wait, and every submission's GPU passes on the
+    /// CPU clock (GPU timestamps are written, as with --profile).
+    #[arg(long, value_name = "FILE.json")]
+    pub(crate) trace: Option<PathBuf>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub(crate) quiet: bool,
@@ -386,6 +392,7 @@ impl DeviceArgs {
             selector: self.device.clone(),
             validate: self.validate,
             profile: false,
+            trace: None,
         }
     }
 }

@@ -2,7 +2,9 @@
 //! then print what it did.
 
 use std::io::IsTerminal;
+use std::path::Path;
 use std::sync::atomic::Ordering;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -19,6 +21,7 @@ use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
 use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
+use vkrad::trace::{cat, span_since, Trace};
 
 pub(crate) fn devices() -> Result<()> {
     let devices = gpu::list_devices()?;
@@ -49,8 +52,14 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
+    if let Some(path) = &args.trace {
+        vkrad::app::check_output_path(path, &["json"])?;
+    }
+    // The trace's clock starts before anything it shows.
+    let trace = args.trace.as_ref().map(|_| Arc::new(Trace::new()));
     job.device = DeviceOptions {
         profile: args.profile,
+        trace: trace.clone(),
         ..args.gpu.options()
     };
     job.max_edge = args.mesh.max_edge;
@@ -111,6 +120,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     let t = Instant::now();
     let scene = vkrad::scene::load_scene_arg(&job.scene)?;
     let load_seconds = t.elapsed().as_secs_f64();
+    span_since(
+        trace.as_deref(),
+        cat::STAGE,
+        "load",
+        t,
+        || serde_json::json!({ "patches": scene.patches.len() }),
+    );
     let estimate = vkrad::app::estimate(&job, &scene);
     if !args.quiet && (std::io::stderr().is_terminal() || estimate.elements >= 100_000) {
         eprintln!("  estimate  {}", describe_estimate(&estimate));
@@ -123,12 +139,28 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     if let Some(path) = &args.report {
         vkrad::app::write_report(path, &report.to_json(&job))?;
     }
+    if let (Some(path), Some(trace)) = (&args.trace, &trace) {
+        write_trace(path, trace)?;
+    }
     if !args.quiet {
         print_summary(&report, args.profile);
-        if let Some(path) = &args.report {
+        for path in args.report.iter().chain(&args.trace) {
             println!("  wrote     {}", path.display());
         }
     }
+    Ok(())
+}
+
+/// Writes the trace as compact JSON, atomically.
+fn write_trace(path: &Path, trace: &Trace) -> Result<()> {
+    let value = trace.to_json();
+    vkrad::output::write_atomically(path, |w| {
+        serde_json::to_writer(&mut *w, &value).map_err(|e| vkrad::Error::Output {
+            path: path.to_owned(),
+            what: e.to_string(),
+        })?;
+        std::io::Write::write_all(w, b"\n").map_err(|e| vkrad::Error::io(path, e))
+    })?;
     Ok(())
 }
 

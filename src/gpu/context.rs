@@ -9,7 +9,9 @@ use std::sync::{Arc, Mutex};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
+use super::instrument::{Calibrator, Counters};
 use crate::error::{Error, Result};
+use crate::trace::Trace;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -44,6 +46,9 @@ pub struct DeviceOptions {
     /// query is written or read back, and each submission is timed once on
     /// the CPU.
     pub profile: bool,
+    /// Record the run into this trace (`--trace`): GPU timestamps are
+    /// written and put on the trace's clock. `None`: nothing is traced.
+    pub trace: Option<Arc<Trace>>,
 }
 
 /// One physical device as `vkrad devices` lists it.
@@ -69,6 +74,9 @@ pub struct Instance {
     /// Kept alive here because the messenger holds a raw pointer to it.
     validation: Arc<ValidationLog>,
     validation_enabled: bool,
+    /// VK_EXT_debug_utils is enabled (the loader or a layer offers it):
+    /// object names and command-buffer labels are written.
+    debug_utils: bool,
 }
 
 impl Instance {
@@ -102,7 +110,14 @@ impl Instance {
         } else {
             vec![]
         };
-        let extensions = if layer_present {
+        // Debug utils whenever offered: names and labels for capture tools.
+        // SAFETY: plain enumeration call on a loaded entry.
+        let offered = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?
+            .iter()
+            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
+        let debug_utils = layer_present || offered;
+        let extensions = if debug_utils {
             vec![ash::ext::debug_utils::NAME.as_ptr()]
         } else {
             vec![]
@@ -164,6 +179,7 @@ impl Instance {
             debug,
             validation,
             validation_enabled: layer_present,
+            debug_utils,
         }))
     }
 
@@ -346,6 +362,21 @@ pub struct Device {
     pub timestamp_period_ns: Option<f64>,
     /// Whether the passes write timestamps ([`DeviceOptions::profile`]).
     pub profile: bool,
+    /// Pipeline statistics per pass (`--profile` on a device with
+    /// `pipelineStatisticsQuery`).
+    pub pipeline_statistics: bool,
+    /// Whether those count compute invocations too: not on llvmpipe
+    /// (lavapipe), whose Mesa 22.3 crashes in its queue thread when they
+    /// are counted over a compute pass that reads a storage image (the
+    /// form-factor reduction, the visibility flags).
+    pub statistics_compute: bool,
+    /// The run's trace ([`DeviceOptions::trace`]).
+    pub trace: Option<Arc<Trace>>,
+    /// Reads the GPU clock against the CPU's (tracing, where the device
+    /// has calibrated timestamps).
+    pub(crate) calibrator: Option<Calibrator>,
+    /// What the passes wrote for profiling, tracing and capture tools.
+    pub counters: Counters,
 }
 
 impl Device {
@@ -365,15 +396,16 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info, options.profile)
+        Self::create(instance, physical, info, options)
     }
 
     fn create(
         instance: Arc<Instance>,
         physical: vk::PhysicalDevice,
         info: DeviceInfo,
-        profile: bool,
+        options: &DeviceOptions,
     ) -> Result<Arc<Self>> {
+        let profile = options.profile;
         let queue_family = instance
             .queue_family(physical)
             .ok_or_else(|| Error::Unsupported {
@@ -399,6 +431,7 @@ impl Device {
                 .raw
                 .get_physical_device_features2(physical, &mut features2)
         };
+        let statistics = profile && features2.features.pipeline_statistics_query == vk::TRUE;
         if features13.dynamic_rendering != vk::TRUE || features13.synchronization2 != vk::TRUE {
             return Err(Error::Unsupported {
                 device: info.name.clone(),
@@ -426,8 +459,16 @@ impl Device {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
+        let calibration = options
+            .trace
+            .as_ref()
+            .and_then(|_| Calibrator::extension(&instance._entry, &instance.raw, physical));
+        let extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+        let enabled = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
+            .enabled_extension_names(&extensions)
+            .enabled_features(&enabled)
             .push_next(&mut enable13);
         // SAFETY: create_info and its chain live across the call.
         let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
@@ -452,9 +493,11 @@ impl Device {
             }
         })?;
         let debug_utils = instance
-            .debug
-            .as_ref()
-            .map(|_| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+            .debug_utils
+            .then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let calibrator = calibration
+            .map(|(_, khr, monotonic)| Calibrator::new(&instance.raw, &raw, khr, monotonic));
+        let statistics_compute = !info.name.starts_with("llvmpipe");
         Ok(Arc::new(Device {
             instance,
             physical,
@@ -467,6 +510,11 @@ impl Device {
             limits: props.limits,
             timestamp_period_ns,
             profile,
+            pipeline_statistics: statistics,
+            statistics_compute,
+            trace: options.trace.clone(),
+            calibrator,
+            counters: Counters::default(),
         }))
     }
 

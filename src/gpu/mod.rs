@@ -3,6 +3,7 @@
 
 pub mod commands;
 pub mod context;
+pub mod instrument;
 pub mod item;
 pub mod memory;
 pub mod pipeline;
@@ -13,4 +14,4 @@ pub mod shooting;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
-pub use profiler::StageTimes;
+pub use profiler::{PipelineStats, StageSummary, StageTimes};
