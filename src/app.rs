@@ -232,21 +232,6 @@ impl Report {
     /// The run as JSON: settings, results and timings (`--report`).
     pub fn to_json(&self, job: &Job) -> serde_json::Value {
         let s = &self.solution;
-        let passes: Vec<_> = self
-            .gpu_times
-            .stages
-            .iter()
-            .map(|(stage, (count, total))| {
-                let total = total.as_secs_f64();
-                serde_json::json!({
-                    "pass": stage,
-                    "count": count,
-                    "total_s": total,
-                    "mean_ms": 1e3 * total / (*count).max(1) as f64,
-                    "share": total / self.gpu_times.total().as_secs_f64().max(1e-12),
-                })
-            })
-            .collect();
         let wall: serde_json::Map<String, serde_json::Value> = self
             .wall
             .iter()
@@ -292,7 +277,7 @@ impl Report {
             "timing": {
                 "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
                 "wall_s": wall,
-                "passes": passes,
+                "passes": self.gpu_times.passes_json(),
             },
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,

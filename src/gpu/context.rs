@@ -308,12 +308,34 @@ unsafe extern "system" fn debug_callback(
 ) -> vk::Bool32 {
     // SAFETY: the layer passes valid callback data for the call's duration;
     // `user` is the ValidationLog the Instance keeps alive.
-    let message = unsafe {
+    let mut message = unsafe {
         data.as_ref()
             .and_then(|d| d.message_as_c_str())
             .map(|m| m.to_string_lossy().into_owned())
             .unwrap_or_default()
     };
+    // The command-buffer labels open where the message arose: the pass and
+    // shot (profiler.rs) it came from.
+    // SAFETY: as above; the layer's label array holds cmd_buf_label_count
+    // valid labels.
+    let mut labels: Vec<String> = unsafe {
+        data.as_ref()
+            .filter(|d| d.cmd_buf_label_count > 0 && !d.p_cmd_buf_labels.is_null())
+            .map(|d| std::slice::from_raw_parts(d.p_cmd_buf_labels, d.cmd_buf_label_count as usize))
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|l| l.label_name_as_c_str())
+            .map(|n| n.to_string_lossy().into_owned())
+            .collect()
+    };
+    // Innermost first, as the layer lists them; outermost first here. This
+    // layer lists each label twice (both entries of its label stack), so
+    // repeats in a row are shown once.
+    labels.reverse();
+    labels.dedup();
+    if !labels.is_empty() {
+        message.push_str(&format!(" [command-buffer labels: {}]", labels.join(" > ")));
+    }
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         eprintln!("vulkan validation error: {message}");
         if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() } {
@@ -516,6 +538,11 @@ impl Device {
             calibrator,
             counters: Counters::default(),
         }))
+    }
+
+    /// The calibrated-timestamps extension the trace's GPU clock uses, if any.
+    pub fn calibrator_extension(&self) -> Option<&'static str> {
+        self.calibrator.as_ref().map(|c| c.extension)
     }
 
     pub fn raw(&self) -> &ash::Device {

@@ -5,9 +5,15 @@
 
 use std::ffi::CString;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 
 use ash::vk;
+
+use super::commands::Commands;
+use super::context::Device;
+use super::profiler::GpuProfiler;
+use crate::error::Result;
 
 /// What a device's passes wrote for profiling, tracing and capture tools,
 /// counted so that tests can tell that nothing is written when nothing was
@@ -188,4 +194,24 @@ pub(crate) fn begin_label(
 pub(crate) fn end_label(utils: &ash::ext::debug_utils::Device, cmd: vk::CommandBuffer) {
     // SAFETY: cmd is recording and has a label open (callers pair them).
     unsafe { utils.cmd_end_debug_utils_label(cmd) };
+}
+
+/// For tests of the labels: records (and never submits) a shot "shot
+/// probe" around a pass "hemicube render", as the shooting passes label
+/// them, holding a dispatch with no pipeline bound: an error the
+/// validation layer reports with the labels open at it.
+#[doc(hidden)]
+pub fn record_labelled_fault(device: &Arc<Device>) -> Result<()> {
+    let cmds = Commands::new(device, "label probe commands")?;
+    let mut profiler = GpuProfiler::new(device, "label probe", 4)?;
+    let cmd = cmds.begin()?;
+    profiler.begin(cmd);
+    profiler.begin_shot(cmd, || ("shot probe".into(), serde_json::json!({})));
+    profiler.begin_pass(cmd, "hemicube render");
+    // SAFETY: deliberately invalid (no compute pipeline bound) for the
+    // validation layer to report; the buffer is never submitted.
+    unsafe { device.raw.cmd_dispatch(cmd, 1, 1, 1) };
+    profiler.end_pass(cmd);
+    profiler.end_shot(cmd);
+    cmds.end()
 }

@@ -89,6 +89,34 @@ impl StageTimes {
         self.gpu |= other.gpu;
     }
 
+    /// One object per stage, as the JSON report's `timing.passes` holds
+    /// them (README, "The JSON report"): count, total, mean, min, max,
+    /// median, share of all stages, and the shader invocations.
+    pub fn passes_json(&self) -> Vec<Value> {
+        let all = self.total().as_secs_f64().max(1e-12);
+        let ms = |d: Duration| 1e3 * d.as_secs_f64();
+        self.stages
+            .iter()
+            .map(|(stage, (count, total))| {
+                let s = self.summary(stage);
+                let total = total.as_secs_f64();
+                json!({
+                    "pass": stage,
+                    "count": count,
+                    "total_s": total,
+                    "mean_ms": 1e3 * total / (*count).max(1) as f64,
+                    "min_ms": s.map(|s| ms(s.min)),
+                    "max_ms": s.map(|s| ms(s.max)),
+                    "median_ms": s.map(|s| ms(s.median)),
+                    "share": total / all,
+                    "invocations": self.stats.get(stage).map(|s| json!({
+                        "vertex": s.vertex, "fragment": s.fragment, "compute": s.compute,
+                    })),
+                })
+            })
+            .collect()
+    }
+
     /// Count, total, minimum, maximum and median of `stage`.
     pub fn summary(&self, stage: &str) -> Option<StageSummary> {
         let &(count, total) = self.stages.get(stage)?;
