@@ -16,6 +16,7 @@ use super::print::{
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
 use vkrad::app::{run_scene, CameraOverride, Job};
+use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
@@ -60,6 +61,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.device = DeviceOptions {
         profile: args.profile,
         trace: trace.clone(),
+        capture: args.capture,
         ..args.gpu.options()
     };
     job.max_edge = args.mesh.max_edge;
@@ -131,7 +133,13 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     if !args.quiet && (std::io::stderr().is_terminal() || estimate.elements >= 100_000) {
         eprintln!("  estimate  {}", describe_estimate(&estimate));
     }
-    let report = run_scene(&job, scene, load_seconds, None, |p| {
+    // With --capture the device is made here, to ask it afterwards what
+    // became of the capture (and to fail before any work without RenderDoc).
+    let device = match args.capture {
+        Some(_) => Some(Device::new(&job.device)?),
+        None => None,
+    };
+    let report = run_scene(&job, scene, load_seconds, device.clone(), |p| {
         progress.update(p);
         !INTERRUPTED.load(Ordering::SeqCst)
     })?;
@@ -146,6 +154,21 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         print_summary(&report, args.profile);
         for path in args.report.iter().chain(&args.trace) {
             println!("  wrote     {}", path.display());
+        }
+        if let Some((target, outcome)) = device.as_ref().and_then(|d| d.capture_outcome()) {
+            let what = match target {
+                CaptureTarget::Shot(n) => format!("shot {n}'s batch"),
+                CaptureTarget::Render => "the final render".into(),
+            };
+            let said = match outcome {
+                Some(true) => "captured by RenderDoc (see its capture folder or UI)".to_string(),
+                Some(false) => "RenderDoc's EndFrameCapture reported failure".into(),
+                None => format!(
+                    "not captured: the run never submitted it ({} shots)",
+                    report.solution.shots
+                ),
+            };
+            println!("  capture   {what}: {said}");
         }
     }
     Ok(())

@@ -9,6 +9,7 @@ use std::sync::{Arc, Mutex};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
+use super::capture::{CaptureTarget, RenderDoc};
 use super::instrument::{Calibrator, Counters};
 use crate::error::{Error, Result};
 use crate::trace::Trace;
@@ -49,6 +50,10 @@ pub struct DeviceOptions {
     /// Record the run into this trace (`--trace`): GPU timestamps are
     /// written and put on the trace's clock. `None`: nothing is traced.
     pub trace: Option<Arc<Trace>>,
+    /// Capture this shot or the final render with RenderDoc's
+    /// in-application API (`--capture`); creating the device fails, saying
+    /// what is missing, when the API cannot be loaded.
+    pub capture: Option<CaptureTarget>,
 }
 
 /// One physical device as `vkrad devices` lists it.
@@ -399,6 +404,8 @@ pub struct Device {
     pub(crate) calibrator: Option<Calibrator>,
     /// What the passes wrote for profiling, tracing and capture tools.
     pub counters: Counters,
+    /// RenderDoc's API and what to capture (`--capture`).
+    capture: Option<(RenderDoc, CaptureTarget)>,
 }
 
 impl Device {
@@ -410,6 +417,14 @@ impl Device {
 
     /// Creates the instance and the device `options` ask for.
     pub fn new(options: &DeviceOptions) -> Result<Arc<Self>> {
+        // RenderDoc first: its layer must see the instance being created.
+        let capture = match options.capture {
+            Some(target) => Some((
+                RenderDoc::load().map_err(|why| Error::Invalid(format!("--capture: {why}")))?,
+                target,
+            )),
+            None => None,
+        };
         let instance = Instance::new(options.validate)?;
         let devices = instance.devices()?;
         if devices.is_empty() {
@@ -418,7 +433,32 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info, options)
+        Self::create(instance, physical, info, options, capture)
+    }
+
+    /// Starts the run's capture when `wanted` says its target is the work
+    /// about to be submitted; returns whether it did.
+    pub(crate) fn capture_start(&self, wanted: impl Fn(CaptureTarget) -> bool) -> bool {
+        match &self.capture {
+            Some((api, target)) if wanted(*target) && api.outcome().is_none() => {
+                api.start(self.instance.raw.handle());
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Ends the capture [`Self::capture_start`] began (after the fence).
+    pub(crate) fn capture_end(&self) {
+        if let Some((api, _)) = &self.capture {
+            api.end(self.instance.raw.handle());
+        }
+    }
+
+    /// `None`: no capture was asked for; else what became of it (see
+    /// [`RenderDoc::outcome`]).
+    pub fn capture_outcome(&self) -> Option<(CaptureTarget, Option<bool>)> {
+        self.capture.as_ref().map(|(api, t)| (*t, api.outcome()))
     }
 
     fn create(
@@ -426,6 +466,7 @@ impl Device {
         physical: vk::PhysicalDevice,
         info: DeviceInfo,
         options: &DeviceOptions,
+        capture: Option<(RenderDoc, CaptureTarget)>,
     ) -> Result<Arc<Self>> {
         let profile = options.profile;
         let queue_family = instance
@@ -537,6 +578,7 @@ impl Device {
             trace: options.trace.clone(),
             calibrator,
             counters: Counters::default(),
+            capture,
         }))
     }
 

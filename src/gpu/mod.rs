@@ -1,6 +1,7 @@
 //! The Vulkan layer (raw `ash` + `gpu-allocator`). All `unsafe` in vkrad
 //! lives here. It knows buffers, images, pipelines and passes, not scenes.
 
+pub mod capture;
 pub mod commands;
 pub mod context;
 pub mod instrument;

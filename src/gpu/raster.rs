@@ -5,6 +5,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::capture::CaptureTarget;
 use super::commands::{
     barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
 };
@@ -156,8 +157,12 @@ pub fn render_lit_mesh(
     }
     profiler.end_pass(cmd);
     cmds.end()?;
+    let capturing = device.capture_start(|t| t == CaptureTarget::Render);
     let submitted = std::time::Instant::now();
     cmds.submit_and_wait()?;
+    if capturing {
+        device.capture_end();
+    }
     profiler.collect(times, submitted)?;
     readback.read((passes * pixels) as usize)
 }

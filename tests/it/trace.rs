@@ -23,6 +23,7 @@ fn device_with(trace: Option<Arc<Trace>>, profile: bool) -> Arc<Device> {
         validate: true,
         profile,
         trace,
+        capture: None,
     })
     .expect("a Vulkan device");
     if std::env::var_os("VKRAD_REQUIRE_VALIDATION").is_some() {
@@ -320,4 +321,29 @@ fn the_cli_writes_a_trace_and_the_reports_pass_figures_add_up_to_the_printed_tab
     }
     assert!((report_sum - table_sum).abs() <= 0.0005 * passes.len() as f64);
     assert_eq!(report["timing"]["source"], "gpu-timestamps");
+}
+
+#[test]
+fn capture_without_renderdoc_says_what_is_missing() {
+    let dir = temp_dir("capture");
+    let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
+        .args(["simple", "--size", "16x16", "--capture", "0"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    if out.status.success() {
+        // RenderDoc is installed here: the capture was made or said why not.
+        assert!(stdout.contains("  capture   shot 0's batch"), "{stdout}");
+        return;
+    }
+    assert!(
+        stderr.contains("RenderDoc's in-application API is not loadable")
+            && stderr.contains("librenderdoc.so")
+            && stderr.contains("LD_LIBRARY_PATH"),
+        "{stderr}"
+    );
+    // Refused before any work: no image.
+    assert!(!dir.join("simple.png").exists());
 }

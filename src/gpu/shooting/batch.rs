@@ -26,6 +26,7 @@ use serde_json::json;
 use super::frame::FRAMES;
 use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL};
 use crate::error::{Error, Result};
+use crate::gpu::capture::CaptureTarget;
 use crate::gpu::commands::{barriers, buffer_barrier};
 use crate::gpu::instrument::Counters;
 use crate::gpu::profiler::GpuProfiler;
@@ -106,6 +107,10 @@ impl ShootingEngine {
         let args =
             || json!({ "batch": ids.batch, "first_shot": ids.first_shot, "shots": shooters.len() });
         span_since(trace, cat::BATCH_CPU, "record", start, args);
+        let shots = ids.first_shot..ids.first_shot + shooters.len() as u64;
+        let capturing = self
+            .device
+            .capture_start(|t| matches!(t, CaptureTarget::Shot(n) if shots.contains(&n)));
         let submitted = Instant::now();
         self.frames[frame].cmds.submit()?;
         span_since(trace, cat::BATCH_CPU, "submit", submitted, args);
@@ -113,6 +118,7 @@ impl ShootingEngine {
         f.pending = shooters.len();
         f.submitted = submitted;
         f.ids = ids;
+        f.capturing = capturing;
         self.in_flight.push_back(frame);
         Ok(ids)
     }
@@ -126,6 +132,9 @@ impl ShootingEngine {
         let f = &mut self.frames[frame];
         f.cmds.wait()?;
         let waited = Instant::now();
+        if std::mem::take(&mut f.capturing) {
+            self.device.capture_end();
+        }
         let shooters = std::mem::take(&mut f.pending);
         let timed = match &f.profiler {
             Some(p) => p.collect(&mut self.times, f.submitted)?,

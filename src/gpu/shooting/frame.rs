@@ -40,6 +40,8 @@ pub(super) struct BatchFrame {
     /// When the pending batch was handed to the queue, and its ids.
     pub submitted: Instant,
     pub ids: BatchIds,
+    /// A RenderDoc capture (`--capture`) is open around the pending batch.
+    pub capturing: bool,
 }
 
 impl BatchFrame {
@@ -62,6 +64,7 @@ impl BatchFrame {
             pending: 0,
             submitted: Instant::now(),
             ids: BatchIds::default(),
+            capturing: false,
         })
     }
 
