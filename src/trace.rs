@@ -1,7 +1,8 @@
 //! `--trace FILE.json`: a timeline of a run in the Chrome trace-event
 //! format ("X" complete events, `ts`/`dur` in microseconds, `pid`/`tid`,
-//! `name`, `cat`, `args`; "M" metadata events name the tracks), which
-//! Perfetto's UI and chrome://tracing open.
+//! `name`, `cat`, `args`; "M" metadata events, `cat` "__metadata" as
+//! Chrome writes them, name the tracks), which Perfetto's UI and
+//! chrome://tracing open.
 //!
 //! One [`Trace`] per run, shared (`Arc`) by whoever records into it: the
 //! job's stages and the solve's CPU work per batch on the CPU tracks
@@ -185,7 +186,8 @@ impl Trace {
             cat,
             tid,
             ts_us: start_ns / 1e3,
-            dur_us: (end_ns - start_ns).max(0.0) / 1e3,
+            // As measured: a negative duration is a fault to see, not hide.
+            dur_us: (end_ns - start_ns) / 1e3,
             args,
         });
     }
@@ -213,7 +215,7 @@ impl Trace {
     /// The trace as one JSON object (`{"traceEvents": [...], ...}`).
     pub fn to_json(&self) -> Value {
         let mut out = vec![json!({
-            "ph": "M", "pid": PID, "tid": 0, "name": "process_name",
+            "ph": "M", "cat": "__metadata", "pid": PID, "tid": 0, "name": "process_name",
             "args": { "name": "vkrad" },
         })];
         let threads = self.threads.lock().map(|t| t.clone()).unwrap_or_default();
@@ -225,11 +227,11 @@ impl Trace {
             .chain(tracks);
         for (tid, name) in named {
             out.push(json!({
-                "ph": "M", "pid": PID, "tid": tid, "name": "thread_name",
+                "ph": "M", "cat": "__metadata", "pid": PID, "tid": tid, "name": "thread_name",
                 "args": { "name": name },
             }));
             out.push(json!({
-                "ph": "M", "pid": PID, "tid": tid, "name": "thread_sort_index",
+                "ph": "M", "cat": "__metadata", "pid": PID, "tid": tid, "name": "thread_sort_index",
                 "args": { "sort_index": tid },
             }));
         }

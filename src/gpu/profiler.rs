@@ -435,7 +435,8 @@ impl GpuProfiler {
                 (start, "aligned-at-submit", f64::NAN)
             }
         };
-        let at = |i: usize| start_ns + ticks[i].saturating_sub(ticks[0]) as f64 * period_ns;
+        // Signed: a timestamp before the first shows as such in the trace.
+        let at = |i: usize| start_ns + (ticks[i] as i128 - ticks[0] as i128) as f64 * period_ns;
         let n = self.passes.len();
         let (name, extra) = &self.submission;
         let mut args = json!({

@@ -70,11 +70,15 @@ fn check_format(trace: &Value) -> Vec<Value> {
         assert!(e["name"].is_string(), "{e}");
         assert!(e["args"].is_object(), "{e}");
         match ph {
-            "M" => assert!(
-                ["process_name", "thread_name", "thread_sort_index"]
-                    .contains(&e["name"].as_str().unwrap()),
-                "{e}"
-            ),
+            "M" => {
+                assert!(
+                    ["process_name", "thread_name", "thread_sort_index"]
+                        .contains(&e["name"].as_str().unwrap()),
+                    "{e}"
+                );
+                // Chrome's own parser (DevTools' TracingModel) needs a cat.
+                assert_eq!(e["cat"], "__metadata", "{e}");
+            }
             "X" => {
                 assert!(e["cat"].is_string(), "{e}");
                 assert!(num(e, "ts").is_finite() && num(e, "ts") >= 0.0, "{e}");
