@@ -41,6 +41,7 @@ fn main() {
         selector,
         validate: false,
         profile,
+        ..Default::default()
     })
     .expect("a Vulkan device");
     println!(

@@ -25,4 +25,5 @@ mod seams;
 mod shaders;
 mod smooth;
 mod stages;
+mod trace;
 mod visibility;
