@@ -48,6 +48,7 @@ fn main() {
             selector: selector.clone(),
             validate: false,
             profile,
+            ..Default::default()
         })
         .expect("a Vulkan device")
     };

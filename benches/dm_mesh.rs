@@ -21,6 +21,7 @@ use common::{arg, device_selector, median};
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings, Mesher};
 use vkrad::mesh::discontinuity::visibility::gpu_blockers;
+use vkrad::mesh::discontinuity::ShadowDetail;
 
 /// Table I: (scene, input polygons, polygons after meshing, CPU seconds).
 const THESIS: [(&str, usize, usize, f64); 3] = [
@@ -40,6 +41,7 @@ fn main() {
         selector,
         validate: false,
         profile,
+        ..Default::default()
     })
     .expect("a Vulkan device");
     println!(
@@ -74,6 +76,7 @@ fn main() {
             mesher: Mesher::Discontinuity { subdivide },
             max_edge: vkrad::mesh::default_max_edge(&scene),
             dm_res,
+            detail: ShadowDetail::Full,
         };
         let runs = if scene.patches.len() > 10_000 {
             1
@@ -137,7 +140,8 @@ fn main() {
             if check { ", check_mesh passed" } else { "" }
         );
         if profile {
-            let table = gpu_blockers(&device, &scene, dm_res).expect("visibility");
+            let table =
+                gpu_blockers(&device, &scene, dm_res, ShadowDetail::Full).expect("visibility");
             for (stage, (count, d)) in &table.times.stages {
                 println!("{:<10} {stage}: {count} x, {:.3} s", "", d.as_secs_f64());
             }

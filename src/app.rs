@@ -6,10 +6,13 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
+use serde_json::{json, Value};
+
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions, StageTimes};
 use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshReport, MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::tonemap::auto_exposure;
@@ -18,12 +21,11 @@ use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
 use crate::solve::solution::{add_ambient, add_ambient_to_elements};
+pub use crate::solve::vertex_gather::display::DISPLAY_REFINEMENTS;
 use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
-pub use crate::solve::vertex_gather::display::{
-    DISPLAY_DISCONTINUITY_MAX_PATCHES, DISPLAY_REFINEMENTS,
-};
 use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
+use crate::trace::{cat, span_since, Trace};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -227,21 +229,6 @@ impl Report {
     /// The run as JSON: settings, results and timings (`--report`).
     pub fn to_json(&self, job: &Job) -> serde_json::Value {
         let s = &self.solution;
-        let passes: Vec<_> = self
-            .gpu_times
-            .stages
-            .iter()
-            .map(|(stage, (count, total))| {
-                let total = total.as_secs_f64();
-                serde_json::json!({
-                    "pass": stage,
-                    "count": count,
-                    "total_s": total,
-                    "mean_ms": 1e3 * total / (*count).max(1) as f64,
-                    "share": total / self.gpu_times.total().as_secs_f64().max(1e-12),
-                })
-            })
-            .collect();
         let wall: serde_json::Map<String, serde_json::Value> = self
             .wall
             .iter()
@@ -287,7 +274,7 @@ impl Report {
             "timing": {
                 "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
                 "wall_s": wall,
-                "passes": passes,
+                "passes": self.gpu_times.passes_json(),
             },
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,
@@ -335,7 +322,27 @@ pub fn run(
 ) -> Result<Report> {
     let t = Instant::now();
     let scene = scene::load_scene_arg(&job.scene)?;
+    let trace = job.device.trace.as_deref();
+    span_since(
+        trace,
+        cat::STAGE,
+        "load",
+        t,
+        || json!({ "patches": scene.patches.len() }),
+    );
     run_scene(job, scene, t.elapsed().as_secs_f64(), device, on_progress)
+}
+
+/// Ends stage `name` begun at `start`: its wall time, and its span in the
+/// trace when there is one (`args` built only then).
+fn end_stage(
+    wall: &mut Vec<(&'static str, f64)>,
+    trace: Option<&Trace>,
+    (name, start): (&'static str, Instant),
+    args: impl FnOnce() -> Value,
+) {
+    wall.push((name, start.elapsed().as_secs_f64()));
+    span_since(trace, cat::STAGE, name, start, args);
 }
 
 /// The mesh settings a job asks for on `scene`.
@@ -346,6 +353,7 @@ pub fn mesh_settings(job: &Job, scene: &Scene) -> MeshSettings {
             .max_edge
             .unwrap_or_else(|| mesh::default_max_edge(scene)),
         dm_res: job.dm_res,
+        detail: ShadowDetail::Full,
     }
 }
 
@@ -382,7 +390,18 @@ pub fn run_scene(
     }
     let device = match device {
         Some(d) => d,
-        None => Device::new(&job.device)?,
+        None => {
+            let t = Instant::now();
+            let device = Device::new(&job.device)?;
+            span_since(
+                job.device.trace.as_deref(),
+                cat::STAGE,
+                "device",
+                t,
+                || json!({ "name": device.info.name }),
+            );
+            device
+        }
     };
     let t = Instant::now();
     let settings = mesh_settings(job, &scene);
@@ -393,7 +412,14 @@ pub fn run_scene(
     if job.check_mesh {
         check_mesh(&mesh, &scene, job.mesher)?;
     }
-    wall.push(("mesh", t.elapsed().as_secs_f64()));
+    let trace = device.trace.clone();
+    let trace = trace.as_deref();
+    end_stage(
+        &mut wall,
+        trace,
+        ("mesh", t),
+        || json!({ "elements": mesh.elements.len(), "vertices": mesh.vertices.len() }),
+    );
 
     let t = Instant::now();
     let mut on_update = on_progress;
@@ -405,7 +431,12 @@ pub fn run_scene(
         ..job.solve
     };
     let solution = solve(&device, &scene, &mesh, &solve_settings, &mut on_progress)?;
-    wall.push(("solve", t.elapsed().as_secs_f64()));
+    end_stage(
+        &mut wall,
+        trace,
+        ("solve", t),
+        || json!({ "shots": solution.shots, "elements": mesh.elements.len(), "residual": solution.residual }),
+    );
     let adaptive = AdaptiveSettings {
         tolerance: job.tolerance,
         max_elements: job.max_elements,
@@ -473,7 +504,12 @@ pub fn run_scene(
         _ => None,
     };
     if display.is_some() {
-        wall.push(("display mesh", t.elapsed().as_secs_f64()));
+        end_stage(
+            &mut wall,
+            trace,
+            ("display mesh", t),
+            || json!({ "elements": display.as_ref().map(|d| d.mesh.elements.len()) }),
+        );
     }
     let t = Instant::now();
     let mut interrupted = solution.interrupted.then_some("solve");
@@ -561,7 +597,12 @@ pub fn run_scene(
         }
     };
     if job.final_gather.is_some() {
-        wall.push(("gather", t.elapsed().as_secs_f64()));
+        end_stage(
+            &mut wall,
+            trace,
+            ("gather", t),
+            || json!({ "vertices": shown.len() }),
+        );
     }
     let display_mesh = display.map(|d| d.mesh);
     let t = Instant::now();
@@ -577,7 +618,12 @@ pub fn run_scene(
         job.wireframe,
         &mut gpu_times,
     )?;
-    wall.push(("render", t.elapsed().as_secs_f64()));
+    end_stage(
+        &mut wall,
+        trace,
+        ("render", t),
+        || json!({ "size": [job.size.0, job.size.1], "elements": shown_mesh.elements.len() }),
+    );
 
     let t = Instant::now();
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
@@ -585,7 +631,12 @@ pub fn run_scene(
     if let Some(export) = &job.export {
         export_lit_mesh(export, &scene, shown_mesh, &shown, exposure)?;
     }
-    wall.push(("write", t.elapsed().as_secs_f64()));
+    end_stage(
+        &mut wall,
+        trace,
+        ("write", t),
+        || json!({ "image": output.display().to_string() }),
+    );
     device.check_validation()?;
 
     Ok(Report {

@@ -15,5 +15,6 @@ pub mod output;
 pub mod render;
 pub mod scene;
 pub mod solve;
+pub mod trace;
 
 pub use error::{Error, Result};

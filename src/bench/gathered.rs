@@ -23,6 +23,7 @@ use crate::error::Result;
 use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::gpu::Device;
 use crate::mesh::build::{build_mesh, MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
 use crate::output::image_io::HdrImage;
 use crate::render::{camera_view_proj, pixel_samples, SAMPLES_PER_PIXEL};
 use crate::scene::{Camera, Scene};
@@ -216,6 +217,7 @@ pub fn gathered_reference(
             mesher: Mesher::Uniform,
             max_edge: settings.source_edge,
             dm_res: 128,
+            detail: ShadowDetail::Full,
         },
     )?;
     let solve_settings = SolveSettings {

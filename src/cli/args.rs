@@ -8,6 +8,7 @@ use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 use vkrad::solve::vertex_gather::VertexGather;
 
+use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::DeviceOptions;
 use vkrad::mesh::build::Mesher;
 use vkrad::solve::{FormFactorMethod, HierarchyRule, Shooting};
@@ -280,6 +281,19 @@ pub(crate) struct RenderArgs {
     /// Write settings, results and per-pass timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub(crate) report: Option<PathBuf>,
+    /// Write a timeline of the run in the Chrome trace-event format
+    /// (Perfetto, chrome://tracing): the CPU stages and each batch's pick,
+    /// record, submit and wait, and every submission's GPU passes on the
+    /// CPU clock (GPU timestamps are written, as with --profile).
+    #[arg(long, value_name = "FILE.json")]
+    pub(crate) trace: Option<PathBuf>,
+    /// Capture shot N (the submission of its batch; shots count from 0 as
+    /// the trace and the labels name them) or the final render (`render`)
+    /// as one RenderDoc frame, through RenderDoc's in-application API:
+    /// launch vkrad under RenderDoc, or put librenderdoc.so on the library
+    /// path.
+    #[arg(long, value_name = "N|render", value_parser = parse_capture)]
+    pub(crate) capture: Option<CaptureTarget>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub(crate) quiet: bool,
@@ -361,6 +375,16 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     }
 }
 
+fn parse_capture(s: &str) -> Result<CaptureTarget, String> {
+    match s {
+        "render" => Ok(CaptureTarget::Render),
+        _ => s
+            .parse()
+            .map(CaptureTarget::Shot)
+            .map_err(|_| format!("expected a shot number or `render`, got {s:?}")),
+    }
+}
+
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
@@ -386,6 +410,8 @@ impl DeviceArgs {
             selector: self.device.clone(),
             validate: self.validate,
             profile: false,
+            trace: None,
+            capture: None,
         }
     }
 }

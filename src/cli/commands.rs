@@ -2,7 +2,9 @@
 //! then print what it did.
 
 use std::io::IsTerminal;
+use std::path::Path;
 use std::sync::atomic::Ordering;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
@@ -14,11 +16,14 @@ use super::print::{
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
 use vkrad::app::{run_scene, CameraOverride, Job};
+use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::{self, Device, DeviceOptions};
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::mesh::discontinuity::ShadowDetail;
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
 use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
+use vkrad::trace::{cat, span_since, Trace};
 
 pub(crate) fn devices() -> Result<()> {
     let devices = gpu::list_devices()?;
@@ -49,8 +54,15 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
+    if let Some(path) = &args.trace {
+        vkrad::app::check_output_path(path, &["json"])?;
+    }
+    // The trace's clock starts before anything it shows.
+    let trace = args.trace.as_ref().map(|_| Arc::new(Trace::new()));
     job.device = DeviceOptions {
         profile: args.profile,
+        trace: trace.clone(),
+        capture: args.capture,
         ..args.gpu.options()
     };
     job.max_edge = args.mesh.max_edge;
@@ -111,11 +123,24 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     let t = Instant::now();
     let scene = vkrad::scene::load_scene_arg(&job.scene)?;
     let load_seconds = t.elapsed().as_secs_f64();
+    span_since(
+        trace.as_deref(),
+        cat::STAGE,
+        "load",
+        t,
+        || serde_json::json!({ "patches": scene.patches.len() }),
+    );
     let estimate = vkrad::app::estimate(&job, &scene);
     if !args.quiet && (std::io::stderr().is_terminal() || estimate.elements >= 100_000) {
         eprintln!("  estimate  {}", describe_estimate(&estimate));
     }
-    let report = run_scene(&job, scene, load_seconds, None, |p| {
+    // With --capture the device is made here, to ask it afterwards what
+    // became of the capture (and to fail before any work without RenderDoc).
+    let device = match args.capture {
+        Some(_) => Some(Device::new(&job.device)?),
+        None => None,
+    };
+    let report = run_scene(&job, scene, load_seconds, device.clone(), |p| {
         progress.update(p);
         !INTERRUPTED.load(Ordering::SeqCst)
     })?;
@@ -123,12 +148,43 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     if let Some(path) = &args.report {
         vkrad::app::write_report(path, &report.to_json(&job))?;
     }
+    if let (Some(path), Some(trace)) = (&args.trace, &trace) {
+        write_trace(path, trace)?;
+    }
     if !args.quiet {
         print_summary(&report, args.profile);
-        if let Some(path) = &args.report {
+        for path in args.report.iter().chain(&args.trace) {
             println!("  wrote     {}", path.display());
         }
+        if let Some((target, outcome)) = device.as_ref().and_then(|d| d.capture_outcome()) {
+            let what = match target {
+                CaptureTarget::Shot(n) => format!("shot {n}'s batch"),
+                CaptureTarget::Render => "the final render".into(),
+            };
+            let said = match outcome {
+                Some(true) => "captured by RenderDoc (see its capture folder or UI)".to_string(),
+                Some(false) => "RenderDoc's EndFrameCapture reported failure".into(),
+                None => format!(
+                    "not captured: the run never submitted it ({} shots)",
+                    report.solution.shots
+                ),
+            };
+            println!("  capture   {what}: {said}");
+        }
     }
+    Ok(())
+}
+
+/// Writes the trace as compact JSON, atomically.
+fn write_trace(path: &Path, trace: &Trace) -> Result<()> {
+    let value = trace.to_json();
+    vkrad::output::write_atomically(path, |w| {
+        serde_json::to_writer(&mut *w, &value).map_err(|e| vkrad::Error::Output {
+            path: path.to_owned(),
+            what: e.to_string(),
+        })?;
+        std::io::Write::write_all(w, b"\n").map_err(|e| vkrad::Error::io(path, e))
+    })?;
     Ok(())
 }
 
@@ -179,6 +235,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
             .max_edge
             .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene)),
         dm_res: args.mesh.dm_res,
+        detail: ShadowDetail::Full,
     };
     let (mesh, report) = build_mesh(&device, &scene, &settings)?;
     check_mesh(&mesh, &scene, settings.mesher)?;

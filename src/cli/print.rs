@@ -139,6 +139,20 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
                 100.0 * t / total.max(1e-12)
             );
         }
+        if !r.gpu_times.stats.is_empty() {
+            println!("  invocations (pipeline statistics; - where the device does not count them)");
+            println!(
+                "    {:<24} {:>14} {:>14} {:>14}",
+                "pass", "vertex", "fragment", "compute"
+            );
+            for (stage, s) in &r.gpu_times.stats {
+                let compute = s.compute.map_or("-".to_string(), |c| c.to_string());
+                println!(
+                    "    {stage:<24} {:>14} {:>14} {compute:>14}",
+                    s.vertex, s.fragment
+                );
+            }
+        }
     } else {
         println!("  gpu       {total:.2}s in passes ({source}; --profile for the table)");
     }

@@ -9,7 +9,10 @@ use std::sync::{Arc, Mutex};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
+use super::capture::{CaptureTarget, RenderDoc};
+use super::instrument::{Calibrator, Counters};
 use crate::error::{Error, Result};
+use crate::trace::Trace;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -44,6 +47,13 @@ pub struct DeviceOptions {
     /// query is written or read back, and each submission is timed once on
     /// the CPU.
     pub profile: bool,
+    /// Record the run into this trace (`--trace`): GPU timestamps are
+    /// written and put on the trace's clock. `None`: nothing is traced.
+    pub trace: Option<Arc<Trace>>,
+    /// Capture this shot or the final render with RenderDoc's
+    /// in-application API (`--capture`); creating the device fails, saying
+    /// what is missing, when the API cannot be loaded.
+    pub capture: Option<CaptureTarget>,
 }
 
 /// One physical device as `vkrad devices` lists it.
@@ -69,6 +79,9 @@ pub struct Instance {
     /// Kept alive here because the messenger holds a raw pointer to it.
     validation: Arc<ValidationLog>,
     validation_enabled: bool,
+    /// VK_EXT_debug_utils is enabled (the loader or a layer offers it):
+    /// object names and command-buffer labels are written.
+    debug_utils: bool,
 }
 
 impl Instance {
@@ -102,7 +115,14 @@ impl Instance {
         } else {
             vec![]
         };
-        let extensions = if layer_present {
+        // Debug utils whenever offered: names and labels for capture tools.
+        // SAFETY: plain enumeration call on a loaded entry.
+        let offered = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?
+            .iter()
+            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
+        let debug_utils = layer_present || offered;
+        let extensions = if debug_utils {
             vec![ash::ext::debug_utils::NAME.as_ptr()]
         } else {
             vec![]
@@ -164,6 +184,7 @@ impl Instance {
             debug,
             validation,
             validation_enabled: layer_present,
+            debug_utils,
         }))
     }
 
@@ -292,12 +313,34 @@ unsafe extern "system" fn debug_callback(
 ) -> vk::Bool32 {
     // SAFETY: the layer passes valid callback data for the call's duration;
     // `user` is the ValidationLog the Instance keeps alive.
-    let message = unsafe {
+    let mut message = unsafe {
         data.as_ref()
             .and_then(|d| d.message_as_c_str())
             .map(|m| m.to_string_lossy().into_owned())
             .unwrap_or_default()
     };
+    // The command-buffer labels open where the message arose: the pass and
+    // shot (profiler.rs) it came from.
+    // SAFETY: as above; the layer's label array holds cmd_buf_label_count
+    // valid labels.
+    let mut labels: Vec<String> = unsafe {
+        data.as_ref()
+            .filter(|d| d.cmd_buf_label_count > 0 && !d.p_cmd_buf_labels.is_null())
+            .map(|d| std::slice::from_raw_parts(d.p_cmd_buf_labels, d.cmd_buf_label_count as usize))
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|l| l.label_name_as_c_str())
+            .map(|n| n.to_string_lossy().into_owned())
+            .collect()
+    };
+    // Innermost first, as the layer lists them; outermost first here. This
+    // layer lists each label twice (both entries of its label stack), so
+    // repeats in a row are shown once.
+    labels.reverse();
+    labels.dedup();
+    if !labels.is_empty() {
+        message.push_str(&format!(" [command-buffer labels: {}]", labels.join(" > ")));
+    }
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         eprintln!("vulkan validation error: {message}");
         if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() } {
@@ -346,6 +389,23 @@ pub struct Device {
     pub timestamp_period_ns: Option<f64>,
     /// Whether the passes write timestamps ([`DeviceOptions::profile`]).
     pub profile: bool,
+    /// Pipeline statistics per pass (`--profile` on a device with
+    /// `pipelineStatisticsQuery`).
+    pub pipeline_statistics: bool,
+    /// Whether those count compute invocations too: not on llvmpipe
+    /// (lavapipe), whose Mesa 22.3 crashes in its queue thread when they
+    /// are counted over a compute pass that reads a storage image (the
+    /// form-factor reduction, the visibility flags).
+    pub statistics_compute: bool,
+    /// The run's trace ([`DeviceOptions::trace`]).
+    pub trace: Option<Arc<Trace>>,
+    /// Reads the GPU clock against the CPU's (tracing, where the device
+    /// has calibrated timestamps).
+    pub(crate) calibrator: Option<Calibrator>,
+    /// What the passes wrote for profiling, tracing and capture tools.
+    pub counters: Counters,
+    /// RenderDoc's API and what to capture (`--capture`).
+    capture: Option<(RenderDoc, CaptureTarget)>,
 }
 
 impl Device {
@@ -357,6 +417,14 @@ impl Device {
 
     /// Creates the instance and the device `options` ask for.
     pub fn new(options: &DeviceOptions) -> Result<Arc<Self>> {
+        // RenderDoc first: its layer must see the instance being created.
+        let capture = match options.capture {
+            Some(target) => Some((
+                RenderDoc::load().map_err(|why| Error::Invalid(format!("--capture: {why}")))?,
+                target,
+            )),
+            None => None,
+        };
         let instance = Instance::new(options.validate)?;
         let devices = instance.devices()?;
         if devices.is_empty() {
@@ -365,15 +433,42 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info, options.profile)
+        Self::create(instance, physical, info, options, capture)
+    }
+
+    /// Starts the run's capture when `wanted` says its target is the work
+    /// about to be submitted; returns whether it did.
+    pub(crate) fn capture_start(&self, wanted: impl Fn(CaptureTarget) -> bool) -> bool {
+        match &self.capture {
+            Some((api, target)) if wanted(*target) && api.outcome().is_none() => {
+                api.start(self.instance.raw.handle());
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Ends the capture [`Self::capture_start`] began (after the fence).
+    pub(crate) fn capture_end(&self) {
+        if let Some((api, _)) = &self.capture {
+            api.end(self.instance.raw.handle());
+        }
+    }
+
+    /// `None`: no capture was asked for; else what became of it (see
+    /// [`RenderDoc::outcome`]).
+    pub fn capture_outcome(&self) -> Option<(CaptureTarget, Option<bool>)> {
+        self.capture.as_ref().map(|(api, t)| (*t, api.outcome()))
     }
 
     fn create(
         instance: Arc<Instance>,
         physical: vk::PhysicalDevice,
         info: DeviceInfo,
-        profile: bool,
+        options: &DeviceOptions,
+        capture: Option<(RenderDoc, CaptureTarget)>,
     ) -> Result<Arc<Self>> {
+        let profile = options.profile;
         let queue_family = instance
             .queue_family(physical)
             .ok_or_else(|| Error::Unsupported {
@@ -399,6 +494,7 @@ impl Device {
                 .raw
                 .get_physical_device_features2(physical, &mut features2)
         };
+        let statistics = profile && features2.features.pipeline_statistics_query == vk::TRUE;
         if features13.dynamic_rendering != vk::TRUE || features13.synchronization2 != vk::TRUE {
             return Err(Error::Unsupported {
                 device: info.name.clone(),
@@ -426,8 +522,16 @@ impl Device {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
+        let calibration = options
+            .trace
+            .as_ref()
+            .and_then(|_| Calibrator::extension(&instance._entry, &instance.raw, physical));
+        let extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+        let enabled = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
+            .enabled_extension_names(&extensions)
+            .enabled_features(&enabled)
             .push_next(&mut enable13);
         // SAFETY: create_info and its chain live across the call.
         let raw = unsafe { instance.raw.create_device(physical, &create_info, None) }
@@ -452,9 +556,11 @@ impl Device {
             }
         })?;
         let debug_utils = instance
-            .debug
-            .as_ref()
-            .map(|_| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+            .debug_utils
+            .then(|| ash::ext::debug_utils::Device::new(&instance.raw, &raw));
+        let calibrator = calibration
+            .map(|(_, khr, monotonic)| Calibrator::new(&instance.raw, &raw, khr, monotonic));
+        let statistics_compute = !info.name.starts_with("llvmpipe");
         Ok(Arc::new(Device {
             instance,
             physical,
@@ -467,7 +573,18 @@ impl Device {
             limits: props.limits,
             timestamp_period_ns,
             profile,
+            pipeline_statistics: statistics,
+            statistics_compute,
+            trace: options.trace.clone(),
+            calibrator,
+            counters: Counters::default(),
+            capture,
         }))
+    }
+
+    /// The calibrated-timestamps extension the trace's GPU clock uses, if any.
+    pub fn calibrator_extension(&self) -> Option<&'static str> {
+        self.calibrator.as_ref().map(|c| c.extension)
     }
 
     pub fn raw(&self) -> &ash::Device {

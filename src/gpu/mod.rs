@@ -1,8 +1,10 @@
 //! The Vulkan layer (raw `ash` + `gpu-allocator`). All `unsafe` in vkrad
 //! lives here. It knows buffers, images, pipelines and passes, not scenes.
 
+pub mod capture;
 pub mod commands;
 pub mod context;
+pub mod instrument;
 pub mod item;
 pub mod memory;
 pub mod pipeline;
@@ -13,4 +15,4 @@ pub mod shooting;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
-pub use profiler::StageTimes;
+pub use profiler::{PipelineStats, StageSummary, StageTimes};

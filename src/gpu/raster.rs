@@ -5,6 +5,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use super::capture::CaptureTarget;
 use super::commands::{
     barriers, begin_rendering, buffer_barrier, image_barrier, set_viewport, Commands,
 };
@@ -175,9 +176,17 @@ pub fn render_lit_mesh(
     let cmds = Commands::new(device, "final render commands")?;
     let mut profiler = GpuProfiler::new(device, "final render timestamps", 4)?;
     let cmd = cmds.begin()?;
-    if let Some(p) = profiler.as_mut() {
-        p.begin(cmd);
-    }
+    profiler.begin(cmd);
+    profiler.set_submission(|| {
+        (
+            "final render".into(),
+            serde_json::json!({
+                "width": width, "height": height, "samples": view_projs.len(),
+                "triangles": triangles.len() / 3, "lines": lines.len() / 2,
+            }),
+        )
+    });
+    profiler.begin_pass(cmd, "final render");
     to_attachment_layouts(device, cmd, &color, &depth);
     let raw = &device.raw;
     for (pass, view_proj) in view_projs.iter().enumerate() {
@@ -234,14 +243,15 @@ pub fn render_lit_mesh(
             pass as u64 * pixels * 16,
         );
     }
-    if let Some(p) = profiler.as_mut() {
-        p.stamp(cmd, "final render");
-    }
+    profiler.end_pass(cmd);
     cmds.end()?;
+    let capturing = device.capture_start(|t| t == CaptureTarget::Render);
+    let submitted = std::time::Instant::now();
     cmds.submit_and_wait()?;
-    if let Some(p) = &profiler {
-        p.collect(times)?;
+    if capturing {
+        device.capture_end();
     }
+    profiler.collect(times, submitted)?;
     readback.read((passes * pixels) as usize)
 }
 

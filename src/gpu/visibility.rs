@@ -203,7 +203,7 @@ impl VisibilityPass {
             item_pipeline,
             flags_pipeline,
             commands: Commands::new(device, "visibility commands")?,
-            profiler: GpuProfiler::new(device, "visibility timestamps", 8)?,
+            profiler: Some(GpuProfiler::new(device, "visibility timestamps", 8)?),
             depth_format,
             times: StageTimes::default(),
         })
@@ -236,11 +236,13 @@ impl VisibilityPass {
             self.record(batch)?;
             let start = std::time::Instant::now();
             self.commands.submit_and_wait()?;
-            match &self.profiler {
-                Some(p) => p.collect(&mut self.times)?,
-                None => self
-                    .times
-                    .add("visibility batch (CPU timer)", start.elapsed()),
+            let timed = match &self.profiler {
+                Some(p) => p.collect(&mut self.times, start)?,
+                None => false,
+            };
+            if !timed {
+                self.times
+                    .add("visibility batch (CPU timer)", start.elapsed());
             }
             let words = self.words_per_tile as usize;
             let flags: Vec<u32> = self.readback.read(words * batch.len())?;
@@ -289,6 +291,13 @@ impl VisibilityPass {
         let mut profiler = self.profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
+            p.set_submission(|| {
+                (
+                    "visibility tiles".into(),
+                    serde_json::json!({ "tiles": batch.len(), "tile_res": self.tile_res }),
+                )
+            });
+            p.begin_pass(cmd, "visibility render");
         }
         reset_item_frame(
             &d,
@@ -349,7 +358,8 @@ impl VisibilityPass {
             raw.cmd_end_rendering(cmd);
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "visibility render");
+            p.end_pass(cmd);
+            p.begin_pass(cmd, "visibility flags");
         }
         item_buffer_to_scan(&d, cmd, self.item.raw(), self.flags.raw());
         let push = [
@@ -385,7 +395,8 @@ impl VisibilityPass {
             );
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "visibility flags");
+            p.end_pass(cmd);
+            p.begin_pass(cmd, "visibility readback");
         }
         barriers(
             &d,
@@ -433,7 +444,7 @@ impl VisibilityPass {
             &[],
         );
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "visibility readback");
+            p.end_pass(cmd);
         }
         self.profiler = profiler;
         self.commands.end()

@@ -10,7 +10,9 @@ use glam::Vec3;
 use crate::error::{Error, Result};
 use crate::gpu::Device;
 use crate::mesh::discontinuity::visibility::{gpu_blockers, BlockerTable};
-use crate::mesh::discontinuity::{discontinuity_mesh, DiscontinuityOptions, DiscontinuityStats};
+use crate::mesh::discontinuity::{
+    discontinuity_mesh, DiscontinuityOptions, DiscontinuityStats, ShadowDetail,
+};
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
 
@@ -32,6 +34,8 @@ pub struct MeshSettings {
     pub max_edge: f32,
     /// Tile side in pixels of the GPU visibility pass (`--dm-res`).
     pub dm_res: u32,
+    /// How much of the shadows the discontinuity mesher models.
+    pub detail: ShadowDetail,
 }
 
 /// What meshing did, for the summary and the report.
@@ -234,7 +238,7 @@ impl<'a> MeshBuilder<'a> {
             Mesher::Discontinuity { subdivide } => {
                 if self.table.is_none() {
                     let t = Instant::now();
-                    let table = gpu_blockers(self.device, scene, settings.dm_res)?;
+                    let table = gpu_blockers(self.device, scene, settings.dm_res, settings.detail)?;
                     let total = t.elapsed();
                     report.stages.push(("shaft culling", table.culling_time));
                     report
@@ -251,6 +255,7 @@ impl<'a> MeshBuilder<'a> {
                 report.culled = table.culled;
                 report.drawn = table.drawn;
                 let options = DiscontinuityOptions {
+                    detail: settings.detail,
                     max_edge: subdivide.then_some(settings.max_edge),
                     extra_points: extra_points.to_vec(),
                     ..Default::default()

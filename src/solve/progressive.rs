@@ -23,6 +23,8 @@ use crate::gpu::shooting::{FRAMES, MAX_BATCH};
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::trace::cat;
+use serde_json::json;
 
 /// How to solve.
 #[derive(Debug, Clone, Copy)]
@@ -284,6 +286,7 @@ pub fn solve_batched(
         // from before it; the GPU reads each shooter's light when it shoots,
         // so that costs no energy, only a slightly older order.
         while !stop && in_flight.len() < depth && submitted < settings.max_shots {
+            let picking = Instant::now();
             let room = batch.min(settings.max_shots - submitted);
             let mut nodes: Vec<u32> = Vec::with_capacity(room);
             // The nodes a pick must not overlap: this batch's and those in
@@ -329,7 +332,29 @@ pub fn solve_batched(
                 }
                 break;
             }
-            shots_engine.submit(&nodes, &unshot, submitted as u64, hierarchical)?;
+            let picked = Instant::now();
+            let ids = shots_engine.submit(&nodes, &unshot, submitted as u64, hierarchical)?;
+            if let Some(trace) = &device.trace {
+                let tree = shots_engine.tree();
+                let ranks: Vec<_> = nodes
+                    .iter()
+                    .map(|&n| {
+                        [
+                            tree.nodes[n as usize].range.start,
+                            tree.nodes[n as usize].range.end,
+                        ]
+                    })
+                    .collect();
+                trace.cpu_span(
+                    cat::BATCH_CPU,
+                    "pick",
+                    (picking, picked),
+                    json!({
+                        "batch": ids.map(|i| i.batch), "first_shot": ids.map(|i| i.first_shot),
+                        "nodes": nodes, "shooter_ranks": ranks, "in_flight": in_flight.len(),
+                    }),
+                );
+            }
             submitted += nodes.len();
             in_flight.push_back(nodes);
         }

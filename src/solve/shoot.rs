@@ -14,7 +14,7 @@ use crate::formfactor::hemicube::Hemicube;
 use crate::formfactor::raytrace::RayTracedFormFactors;
 use crate::gpu::item::ItemVertex;
 use crate::gpu::shooting::{
-    fixed_point_weights, BatchResult, ElementGeometry, HemicubeLayout, Region, Shooter,
+    fixed_point_weights, BatchIds, BatchResult, ElementGeometry, HemicubeLayout, Region, Shooter,
     ShootingEngine, ShootingInputs, FRAMES,
 };
 use crate::gpu::{Device, StageTimes};
@@ -322,14 +322,14 @@ impl<'a> Shots<'a> {
     /// factors are exact x visibility from the node's outline (hierarchical
     /// shooting); else the hemicube's own at its centre (element shooting,
     /// nodes are leaves). `salt` varies the CPU methods' ray pattern per
-    /// shot.
+    /// shot. Returns the batch's ids (`None` for a CPU method's shot).
     pub fn submit(
         &mut self,
         nodes: &[u32],
         unshot: &[[f32; 4]],
         salt: u64,
         region: bool,
-    ) -> Result<()> {
+    ) -> Result<Option<BatchIds>> {
         if self.pending.len() >= self.depth() {
             return Err(Error::Invalid(format!(
                 "{} shot batches are pending already: wait for one first",
@@ -344,7 +344,7 @@ impl<'a> Shots<'a> {
             };
             let (after, power) = self.shoot_cpu(node, unshot, salt)?;
             self.pending.push_back(Pending::Done(after, power));
-            return Ok(());
+            return Ok(None);
         }
         let (tree, mesh) = (&self.tree, self.mesh);
         // Per node: the parts' outlines and weights, which its Region borrows.
@@ -394,9 +394,9 @@ impl<'a> Shots<'a> {
                 }),
             });
         }
-        self.engine.submit(&shooters)?;
+        let ids = self.engine.submit(&shooters)?;
         self.pending.push_back(Pending::Gpu(nodes.to_vec()));
-        Ok(())
+        Ok(Some(ids))
     }
 
     /// Waits for the oldest pending batch: every element's unshot

@@ -13,6 +13,7 @@ use vkrad::bench::meshers::gathered_reference;
 use vkrad::bench::relative_rms_error_where;
 use vkrad::formfactor::gather::{GatherRays, Gatherer};
 use vkrad::mesh::build::{build_mesh, MeshSettings, Mesher};
+use vkrad::mesh::discontinuity::ShadowDetail;
 use vkrad::output::image_io::{save_image, HdrImage};
 use vkrad::solve::{solve, FormFactorMethod, Progress, SolveSettings};
 
@@ -32,6 +33,7 @@ fn gather_reproduces_the_solver_at_its_vertices() {
         mesher: Mesher::Uniform,
         max_edge: scene.extent() / 16.0,
         dm_res: 128,
+        detail: ShadowDetail::Full,
     };
     let (mesh, _) = build_mesh(&device, &scene, &settings).unwrap();
     let solution = solve(

@@ -323,6 +323,7 @@ fn timestamps_only_when_profiling() {
         selector: std::env::var("VKRAD_TEST_DEVICE").ok(),
         validate: true,
         profile: true,
+        ..Default::default()
     })
     .unwrap();
     let sol = solve_batched(&profiled, &s, &mesh, &settings, MAX_BATCH, |_| true).unwrap();

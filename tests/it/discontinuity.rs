@@ -7,7 +7,9 @@ use crate::common;
 
 use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings, Mesher};
 use vkrad::mesh::discontinuity::visibility::gpu_blockers;
-use vkrad::mesh::discontinuity::{cpu_blockers, discontinuity_mesh, DiscontinuityOptions};
+use vkrad::mesh::discontinuity::{
+    cpu_blockers, discontinuity_mesh, DiscontinuityOptions, ShadowDetail,
+};
 
 #[test]
 fn gpu_oracle_meshes_are_watertight() {
@@ -19,6 +21,7 @@ fn gpu_oracle_meshes_are_watertight() {
                 mesher: Mesher::Discontinuity { subdivide },
                 max_edge: vkrad::mesh::default_max_edge(&scene),
                 dm_res,
+                detail: ShadowDetail::Full,
             };
             let (mesh, report) = build_mesh(&device, &scene, &settings).unwrap();
             check_mesh(&mesh, &scene, settings.mesher)
@@ -295,6 +298,7 @@ fn rfield_slivers_are_repaired() {
                 mesher,
                 max_edge,
                 dm_res: 128,
+                detail: ShadowDetail::Full,
             };
             let (mesh, _) = build_mesh(&device, &scene, &settings).unwrap();
             check_mesh(&mesh, &scene, mesher)
@@ -325,7 +329,7 @@ fn tiles_draw_only_the_shaft() {
     }
     let (floor, blocker, light) = (0, 1, 2);
     assert!(scene.material_of(&scene.patches[light]).is_emitter());
-    let table = gpu_blockers(&device, &scene, 64).unwrap();
+    let table = gpu_blockers(&device, &scene, 64, ShadowDetail::Full).unwrap();
     common::assert_validation_clean(&device);
     for k in 0..3 {
         assert_eq!(

@@ -682,6 +682,7 @@ fn few_rays_noise_behind_a_partial_blocker() {
 #[test]
 fn small_shooters_beside_large_receivers() {
     use vkrad::mesh::build::{build_mesh, MeshSettings, Mesher};
+    use vkrad::mesh::discontinuity::ShadowDetail;
     let device = device();
     eprintln!("| scene | elements | shooters checked | smallest / largest element (area) | row sum, default: min / max | without the source check: max | corner means (Wallace): max | time per shot |");
     eprintln!("|---|---|---|---|---|---|---|---|");
@@ -698,6 +699,7 @@ fn small_shooters_beside_large_receivers() {
             mesher: Mesher::Discontinuity { subdivide },
             max_edge: vkrad::mesh::default_max_edge(&scene),
             dm_res: 128,
+            detail: ShadowDetail::Full,
         };
         let (mesh, _) = build_mesh(&device, &scene, &settings).unwrap();
         // The 100 smallest elements and the 100 thinnest (area over the

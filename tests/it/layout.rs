@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 /// itself). Mirrors the table in ARCHITECTURE.md.
 const MAY_IMPORT: &[(&str, &[&str])] = &[
     ("error", &[]),
+    ("trace", &[]),
     ("geom", &[]),
     ("scene", &["error", "geom"]),
-    ("gpu", &["error"]),
+    ("gpu", &["error", "trace"]),
     ("mesh", &["error", "geom", "scene", "gpu"]),
     ("formfactor", &["error", "geom", "scene", "mesh"]),
     ("output", &["error", "mesh"]),
@@ -25,6 +26,7 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
             "formfactor",
             "gpu",
             "output",
+            "trace",
         ],
     ),
     (

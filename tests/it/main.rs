@@ -26,4 +26,5 @@ mod shaders;
 mod smooth;
 mod stages;
 mod textures;
+mod trace;
 mod visibility;

@@ -6,12 +6,13 @@ use crate::common;
 
 use glam::Vec3;
 use vkrad::mesh::discontinuity::visibility::gpu_blockers;
+use vkrad::mesh::discontinuity::ShadowDetail;
 
 #[test]
 fn simple_scene_blocker_shadows_the_floor_from_every_light_vertex() {
     let device = common::device();
     let scene = vkrad::scene::load_builtin("simple").unwrap().unwrap();
-    let table = gpu_blockers(&device, &scene, 64).unwrap();
+    let table = gpu_blockers(&device, &scene, 64, ShadowDetail::Full).unwrap();
     common::assert_validation_clean(&device);
     let light = scene
         .patches
@@ -75,7 +76,7 @@ fn hidden_target_is_skipped_and_blocker_behind_target_is_ignored() {
         vec![light, occluder, target, floor],
         vec![material(0.5, 0.0), material(0.5, 1.0)],
     );
-    let table = gpu_blockers(&device, &s, 32).unwrap();
+    let table = gpu_blockers(&device, &s, 32, ShadowDetail::Full).unwrap();
     common::assert_validation_clean(&device);
     for k in 0..4 {
         // The occluder's top faces the light: lit, nothing in front of it
@@ -125,7 +126,7 @@ fn edge_midpoint_sees_a_blocker_both_ends_miss() {
         vec![material(0.5, 0.0), material(0.0, 1.0)],
     );
     assert!(s.patches[4].normal.y < 0.0);
-    let table = gpu_blockers(&device, &s, 256).unwrap();
+    let table = gpu_blockers(&device, &s, 256, ShadowDetail::Full).unwrap();
     common::assert_validation_clean(&device);
     let (floor, hidden, light, m) = (0, 1, 4, 3);
     for end in [1, 2] {

@@ -21,12 +21,16 @@
 use std::time::Instant;
 
 use ash::vk;
+use serde_json::json;
 
 use super::frame::FRAMES;
 use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL};
 use crate::error::{Error, Result};
+use crate::gpu::capture::CaptureTarget;
 use crate::gpu::commands::{barriers, buffer_barrier};
+use crate::gpu::instrument::Counters;
 use crate::gpu::profiler::GpuProfiler;
+use crate::trace::{cat, span_since};
 
 /// The most shooters one submission takes (parameter slots).
 pub const MAX_BATCH: usize = 8;
@@ -37,6 +41,15 @@ pub const MAX_BATCH: usize = 8;
 pub struct BatchResult {
     pub unshot: Vec<[f32; 4]>,
     pub shot_light: Vec<[f32; 3]>,
+}
+
+/// A batch's id and its first shot's (the shots are numbered on from it),
+/// counted per device: the names its labels and trace events carry
+/// ("batch 3", "shot 17").
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BatchIds {
+    pub batch: u64,
+    pub first_shot: u64,
 }
 
 impl ShootingEngine {
@@ -53,7 +66,8 @@ impl ShootingEngine {
     /// region shooter), without waiting. Their element ranges must be
     /// disjoint. At most [`FRAMES`] batches may be in flight; [`Self::wait`]
     /// returns their results in order.
-    pub fn submit(&mut self, shooters: &[Shooter]) -> Result<()> {
+    pub fn submit(&mut self, shooters: &[Shooter]) -> Result<BatchIds> {
+        let start = Instant::now();
         if shooters.is_empty() || shooters.len() > MAX_BATCH {
             return Err(Error::Invalid(format!(
                 "a batch takes 1 to {MAX_BATCH} shooters, got {}",
@@ -75,19 +89,38 @@ impl ShootingEngine {
         // The frame after the newest one in flight is free: frames are used
         // in turn and at most FRAMES are in flight.
         let frame = self.in_flight.back().map_or(0, |&f| (f + 1) % FRAMES);
+        let counters = &self.device.counters;
+        let ids = BatchIds {
+            batch: Counters::bump(&counters.batch_ids, 1),
+            first_shot: Counters::bump(&counters.shot_ids, shooters.len() as u64),
+        };
         for (k, shooter) in shooters.iter().enumerate() {
             self.write_params(frame * MAX_BATCH + k, k, shooter)?;
         }
         let faces: Vec<[glam::Mat4; 5]> = shooters.iter().map(|s| s.faces).collect();
         let draws = self.cull_faces(frame, &faces)?;
         let mut profiler = self.frames[frame].profiler.take();
-        let recorded = self.record_batch(frame, shooters, &draws, &mut profiler);
+        let recorded = self.record_batch(frame, shooters, &draws, ids, &mut profiler);
         self.frames[frame].profiler = profiler;
         recorded?;
+        let trace = self.device.trace.as_deref();
+        let args =
+            || json!({ "batch": ids.batch, "first_shot": ids.first_shot, "shots": shooters.len() });
+        span_since(trace, cat::BATCH_CPU, "record", start, args);
+        let shots = ids.first_shot..ids.first_shot + shooters.len() as u64;
+        let capturing = self
+            .device
+            .capture_start(|t| matches!(t, CaptureTarget::Shot(n) if shots.contains(&n)));
+        let submitted = Instant::now();
         self.frames[frame].cmds.submit()?;
-        self.frames[frame].pending = shooters.len();
+        span_since(trace, cat::BATCH_CPU, "submit", submitted, args);
+        let f = &mut self.frames[frame];
+        f.pending = shooters.len();
+        f.submitted = submitted;
+        f.ids = ids;
+        f.capturing = capturing;
         self.in_flight.push_back(frame);
-        Ok(())
+        Ok(ids)
     }
 
     /// Waits for the oldest batch in flight and returns what it left.
@@ -98,12 +131,28 @@ impl ShootingEngine {
         let start = Instant::now();
         let f = &mut self.frames[frame];
         f.cmds.wait()?;
-        let shooters = std::mem::take(&mut f.pending);
-        match &f.profiler {
-            Some(p) => p.collect(&mut self.times)?,
-            None => self.times.add(BATCH_WAIT_LABEL, start.elapsed()),
+        let waited = Instant::now();
+        if std::mem::take(&mut f.capturing) {
+            self.device.capture_end();
         }
-        f.read_result(self.element_count as usize, shooters)
+        let shooters = std::mem::take(&mut f.pending);
+        let timed = match &f.profiler {
+            Some(p) => p.collect(&mut self.times, f.submitted)?,
+            None => false,
+        };
+        if !timed {
+            self.times.add(BATCH_WAIT_LABEL, start.elapsed());
+        }
+        let result = f.read_result(self.element_count as usize, shooters);
+        let trace = self.device.trace.as_deref();
+        let ids = f.ids;
+        let args =
+            || json!({ "batch": ids.batch, "first_shot": ids.first_shot, "shots": shooters });
+        if let Some(t) = trace {
+            t.cpu_span(cat::BATCH_CPU, "wait", (start, waited), args());
+        }
+        span_since(trace, cat::BATCH_CPU, "readback", waited, args);
+        result
     }
 
     /// Records the batch of frame `frame` (its shooter `k`'s parameters are
@@ -113,6 +162,7 @@ impl ShootingEngine {
         frame: usize,
         shooters: &[Shooter],
         draws: &[FaceDraws],
+        ids: BatchIds,
         profiler: &mut Option<GpuProfiler>,
     ) -> Result<()> {
         let hemicubes = shooters
@@ -120,8 +170,18 @@ impl ShootingEngine {
             .map(|s| self.hemicube(s.resolution).map(|(h, _)| h))
             .collect::<Result<Vec<_>>>()?;
         let cmd = self.frames[frame].cmds.begin()?;
+        let elements = self.element_count;
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
+            p.set_submission(|| {
+                let shots: Vec<u64> = (0..shooters.len() as u64)
+                    .map(|k| ids.first_shot + k)
+                    .collect();
+                (
+                    format!("batch {}", ids.batch),
+                    json!({ "batch": ids.batch, "shots": shots, "receivers": elements }),
+                )
+            });
         }
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
@@ -129,8 +189,26 @@ impl ShootingEngine {
         let indices = self.frames[frame].indices.as_ref().map(|b| b.raw());
         for (k, (shooter, hemicube)) in shooters.iter().zip(&hemicubes).enumerate() {
             let slot = frame * MAX_BATCH + k;
+            if let Some(p) = profiler.as_mut() {
+                p.begin_shot(cmd, || {
+                    let shot = ids.first_shot + k as u64;
+                    let (first, end) = shooter.ranks;
+                    (
+                        format!("shot {shot}"),
+                        json!({
+                            "shot": shot, "batch": ids.batch, "slot": k,
+                            "shooter_ranks": [first, end], "shooter_elements": end - first,
+                            "shooter_area": shooter.area, "resolution": shooter.resolution,
+                            "region": shooter.region.is_some(), "receivers": elements,
+                        }),
+                    )
+                });
+            }
             self.record_hemicube(cmd, profiler, slot, (draws[k], indices), hemicube);
             if shooter.region.is_some() {
+                if let Some(p) = profiler.as_mut() {
+                    p.begin_pass(cmd, "region form factors");
+                }
                 barriers(
                     &self.device,
                     cmd,
@@ -150,11 +228,14 @@ impl ShootingEngine {
                     raw.cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
                 }
                 if let Some(p) = profiler.as_mut() {
-                    p.stamp(cmd, "region form factors");
+                    p.end_pass(cmd);
                 }
             }
             // Reduction atomics or region correction writes -> shooting read.
             self.record_shooting(cmd, profiler, compute, slot);
+            if let Some(p) = profiler.as_mut() {
+                p.end_shot(cmd);
+            }
         }
         let readback = self.frames[frame].readback.raw();
         self.record_unshot_readback(cmd, profiler, readback);

@@ -34,18 +34,22 @@ impl ShootingEngine {
         let mut profiler = self.ff_profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
+            p.set_submission(|| ("form-factor row".into(), serde_json::json!({})));
         }
         let frame = &self.frames[0];
         let indices = frame.indices.as_ref().map(|b| b.raw());
         let finest = &self.hemicubes[0].0;
         self.record_hemicube(cmd, &mut profiler, 0, (draws, indices), finest);
+        if let Some(p) = profiler.as_mut() {
+            p.begin_pass(cmd, "readback");
+        }
         self.record_copies_to_host(
             cmd,
             &[(self.ff.raw(), 4 * self.element_count as u64, 0)],
             frame.readback.raw(),
         );
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "readback");
+            p.end_pass(cmd);
         }
         self.ff_profiler = profiler;
         self.ff_cmds.end()

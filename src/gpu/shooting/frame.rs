@@ -7,11 +7,12 @@
 //! it after the one before.
 
 use std::sync::Arc;
+use std::time::Instant;
 
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::{BatchResult, MAX_BATCH};
+use super::{BatchIds, BatchResult, MAX_BATCH};
 use crate::error::Result;
 use crate::gpu::commands::Commands;
 use crate::gpu::context::Device;
@@ -36,17 +37,22 @@ pub(super) struct BatchFrame {
     /// Shooters of the batch submitted from this frame and not yet waited
     /// for (0: the frame is free).
     pub pending: usize,
+    /// When the pending batch was handed to the queue, and its ids.
+    pub submitted: Instant,
+    pub ids: BatchIds,
+    /// A RenderDoc capture (`--capture`) is open around the pending batch.
+    pub capturing: bool,
 }
 
 impl BatchFrame {
     pub fn new(device: &Arc<Device>, index: usize, elements: u32) -> Result<Self> {
         Ok(BatchFrame {
             cmds: Commands::new(device, &format!("shot-batch commands {index}"))?,
-            profiler: GpuProfiler::new(
+            profiler: Some(GpuProfiler::new(
                 device,
                 &format!("shot-batch timestamps {index}"),
                 TIMESTAMPS,
-            )?,
+            )?),
             readback: Buffer::new(
                 device,
                 &format!("element readback {index}"),
@@ -56,6 +62,9 @@ impl BatchFrame {
             )?,
             indices: None,
             pending: 0,
+            submitted: Instant::now(),
+            ids: BatchIds::default(),
+            capturing: false,
         })
     }
 

@@ -41,7 +41,7 @@ mod params;
 mod readback;
 mod setup;
 mod upload_shot;
-pub use batch::{BatchResult, MAX_BATCH};
+pub use batch::{BatchIds, BatchResult, MAX_BATCH};
 use cull::FaceCull;
 use frame::BatchFrame;
 pub use frame::FRAMES;
@@ -361,8 +361,8 @@ impl ShootingEngine {
             ff_cmds: Commands::new(device, "form-factor commands")?,
             readback_cmds: Commands::new(device, "readback commands")?,
             upload_shoot_cmds: Commands::new(device, "upload-shoot commands")?,
-            ff_profiler: GpuProfiler::new(device, "form-factor timestamps", 8)?,
-            upload_profiler: GpuProfiler::new(device, "upload-shoot timestamps", 8)?,
+            ff_profiler: Some(GpuProfiler::new(device, "form-factor timestamps", 8)?),
+            upload_profiler: Some(GpuProfiler::new(device, "upload-shoot timestamps", 8)?),
             cull: FaceCull::new(inputs.triangles),
             face_culling: true,
             times: StageTimes::default(),
@@ -444,6 +444,9 @@ impl ShootingEngine {
     ) {
         let d = &self.device;
         let raw = &d.raw;
+        if let Some(p) = profiler.as_mut() {
+            p.begin_pass(cmd, "hemicube render");
+        }
         reset_item_frame(
             d,
             cmd,
@@ -501,9 +504,12 @@ impl ShootingEngine {
             raw.cmd_end_rendering(cmd);
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "hemicube render");
+            p.end_pass(cmd);
         }
         item_buffer_to_scan(d, cmd, self.item.raw(), self.ff.raw());
+        if let Some(p) = profiler.as_mut() {
+            p.begin_pass(cmd, "form-factor reduction");
+        }
         // SAFETY: as above.
         unsafe {
             raw.cmd_bind_pipeline(
@@ -517,7 +523,7 @@ impl ShootingEngine {
             raw.cmd_dispatch(cmd, runs.div_ceil(64), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "form-factor reduction");
+            p.end_pass(cmd);
         }
     }
 
@@ -536,6 +542,9 @@ impl ShootingEngine {
         let compute_rw =
             vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE;
         let compute_or_copy = compute | vk::PipelineStageFlags2::COPY;
+        if let Some(p) = profiler.as_mut() {
+            p.begin_pass(cmd, "shooter light");
+        }
         barriers(
             d,
             cmd,
@@ -579,7 +588,8 @@ impl ShootingEngine {
             d.raw.cmd_dispatch(cmd, 1, 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "shooter light");
+            p.end_pass(cmd);
+            p.begin_pass(cmd, "shooting");
         }
         barriers(
             d,
@@ -609,7 +619,7 @@ impl ShootingEngine {
                 .cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "shooting");
+            p.end_pass(cmd);
         }
     }
 
@@ -622,9 +632,12 @@ impl ShootingEngine {
         };
         let start = std::time::Instant::now();
         cmds.submit_and_wait()?;
-        match profiler {
-            Some(p) => p.collect(&mut self.times)?,
-            None => self.times.add(which.cpu_label(), start.elapsed()),
+        let timed = match profiler {
+            Some(p) => p.collect(&mut self.times, start)?,
+            None => false,
+        };
+        if !timed {
+            self.times.add(which.cpu_label(), start.elapsed());
         }
         Ok(())
     }

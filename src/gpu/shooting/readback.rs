@@ -19,6 +19,9 @@ impl ShootingEngine {
         readback: vk::Buffer,
     ) {
         let unshot_bytes = 16 * self.element_count as u64;
+        if let Some(p) = profiler.as_mut() {
+            p.begin_pass(cmd, "readback");
+        }
         self.record_copies_to_host(
             cmd,
             &[
@@ -28,7 +31,7 @@ impl ShootingEngine {
             readback,
         );
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "readback");
+            p.end_pass(cmd);
         }
     }
 

@@ -16,6 +16,8 @@ impl ShootingEngine {
         let mut profiler = self.upload_profiler.take();
         if let Some(p) = profiler.as_mut() {
             p.begin(cmd);
+            p.set_submission(|| ("uploaded shot".into(), serde_json::json!({})));
+            p.begin_pass(cmd, "form-factor upload");
         }
         barriers(
             &self.device,
@@ -46,7 +48,7 @@ impl ShootingEngine {
                 .cmd_copy_buffer(cmd, self.ff_upload.raw(), self.ff.raw(), &region)
         };
         if let Some(p) = profiler.as_mut() {
-            p.stamp(cmd, "form-factor upload");
+            p.end_pass(cmd);
         }
         // Upload copy -> shooting read of ff.
         self.record_shooting(

@@ -5,6 +5,7 @@
 
 use glam::{DVec2, DVec3};
 
+use super::silhouette::Silhouettes;
 use super::{DiscontinuityOptions, DiscontinuityStats};
 use crate::mesh::sanity::F32_SLACK;
 use crate::scene::{Patch, Scene};
@@ -283,6 +284,7 @@ pub(super) fn collect_segments(
     e: usize,
     t: usize,
     blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
+    silhouettes: &Silhouettes,
     options: &DiscontinuityOptions,
     extent: f64,
     out: &mut Vec<(DVec2, DVec2)>,
@@ -317,6 +319,9 @@ pub(super) fn collect_segments(
                     stats.blockers_projected += 1;
                     let bv = &patches[b].vertices;
                     for k in 0..bv.len() {
+                        if !silhouettes.may_bound(scene, b, k, &[v]) {
+                            continue;
+                        }
                         let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
                         if let Some((a, b2)) = project_segment(frame, v, p0, p1, lo) {
                             clip(a, b2, out);
@@ -351,8 +356,17 @@ pub(super) fn collect_segments(
             }
             union.sort_unstable();
             union.dedup();
+            let edge = [ev[i], ev[j]];
             for &b in &union {
-                for w in &patches[b].vertices {
+                let n = patches[b].vertices.len();
+                for (k, w) in patches[b].vertices.iter().enumerate() {
+                    // A vertex inside the silhouette from every point of
+                    // the emitter edge has no EV event.
+                    if !(silhouettes.may_bound(scene, b, k, &edge)
+                        || silhouettes.may_bound(scene, b, (k + n - 1) % n, &edge))
+                    {
+                        continue;
+                    }
                     if let Some((a, b2)) = project_ev(frame, w.as_dvec3(), ev[i], ev[j], lo) {
                         clip(a, b2, out);
                     }

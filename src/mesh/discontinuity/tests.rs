@@ -348,8 +348,11 @@ fn gpu_blocker_subset_leaves_no_near_duplicate_on_a_shared_edge() {
         .collect();
     let oracle = |e: usize, v: usize, t: usize| table.get(&(e, v, t)).cloned();
     for max_edge in [None, Some(crate::mesh::default_max_edge(&scene))] {
+        // Every edge projected, as when the case was found (silhouette
+        // culling removes the segments that made this sliver).
         let options = DiscontinuityOptions {
             max_edge,
+            silhouettes: false,
             ..Default::default()
         };
         let (mesh, stats) = discontinuity_mesh(&scene, &oracle, &options).expect("meshes");
@@ -456,8 +459,11 @@ fn gpu_blocker_subset_leaves_no_t_junction_at_a_collinear_gap() {
         .collect();
     let oracle = |e: usize, v: usize, t: usize| table.get(&(e, v, t)).cloned();
     for max_edge in [None, Some(crate::mesh::default_max_edge(&scene))] {
+        // Every edge projected, as when the case was found (silhouette
+        // culling removes the segments that made this sliver).
         let options = DiscontinuityOptions {
             max_edge,
+            silhouettes: false,
             ..Default::default()
         };
         let (mesh, stats) = discontinuity_mesh(&scene, &oracle, &options).expect("meshes");

@@ -10,6 +10,7 @@ use glam::{DVec3, Mat4, Vec3};
 use rayon::prelude::*;
 
 use super::shaft::{PatchBvh, Shaft};
+use super::ShadowDetail;
 
 use crate::error::Result;
 use crate::geom::frustum::frustum;
@@ -129,12 +130,18 @@ pub fn tile_view(v: Vec3, target: &[Vec3], normal: Vec3, res: u32) -> Option<Mat
     Some(frustum(lo.x, hi.x, lo.y, hi.y, near) * view)
 }
 
-/// Runs the GPU visibility pass for every emitter vertex and target patch.
-/// Each tile draws only the polygons in the shaft from its light point to
+/// Runs the GPU visibility pass for every emitter vertex and target patch
+/// that gets shadow lines in `detail`. Each tile draws only the polygons in the shaft from its light point to
 /// its target (`shaft`, thesis 4.2.2); a pair whose shaft holds none is lit
 /// and unblocked without a tile.
-pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Result<BlockerTable> {
+pub fn gpu_blockers(
+    device: &Arc<Device>,
+    scene: &Scene,
+    tile_res: u32,
+    detail: ShadowDetail,
+) -> Result<BlockerTable> {
     let start = Instant::now();
+    let receivers = detail.receivers(scene);
     let tiler = Tiler::new(scene);
     let mut table = BlockerTable::default();
     let mut pass: Option<VisibilityPass> = None;
@@ -145,7 +152,7 @@ pub fn gpu_blockers(device: &Arc<Device>, scene: &Scene, tile_res: u32) -> Resul
     for &e in &emitters {
         for (k, &v) in scene.patches[e].vertices.iter().enumerate() {
             for (t, target) in scene.patches.iter().enumerate() {
-                if t == e || scene.material_of(target).is_emitter() {
+                if t == e || !receivers[t] || scene.material_of(target).is_emitter() {
                     continue;
                 }
                 table.pairs += 1;

@@ -10,13 +10,9 @@ use super::{FinalGather, Meter, VertexCache};
 use crate::error::{Error, Result};
 use crate::gpu::Device;
 use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
-
-/// Above this many patches the display mesh is uniform whatever the job
-/// asks: the discontinuity mesher's cost grows with the blocker pairs, and
-/// on the 23,802-patch `rfield` it takes longer than the solve.
-pub const DISPLAY_DISCONTINUITY_MAX_PATCHES: usize = 5000;
 
 /// Default refinement passes of a discontinuity display mesh.
 pub const DISPLAY_REFINEMENTS: usize = 2;
@@ -59,17 +55,7 @@ pub fn display_mesh(
         .edge
         .unwrap_or(0.5 * mesh::default_max_edge(scene))
         .min(solved.max_edge);
-    let mut mesher = request.mesher.unwrap_or(solved.mesher);
-    if mesher != Mesher::Uniform
-        && solved.mesher == Mesher::Uniform
-        && scene.patches.len() > DISPLAY_DISCONTINUITY_MAX_PATCHES
-    {
-        warnings.push(format!(
-            "{} patches: the display mesh is uniform (a discontinuity display mesh is built up to {DISPLAY_DISCONTINUITY_MAX_PATCHES} patches; --mesh discontinuity meshes shadows anyway)",
-            scene.patches.len()
-        ));
-        mesher = Mesher::Uniform;
-    }
+    let mesher = request.mesher.unwrap_or(solved.mesher);
     if mesher == solved.mesher && edge >= solved.max_edge {
         return Ok(None);
     }
@@ -77,9 +63,12 @@ pub fn display_mesh(
         let mesh = if mesher == solved.mesher {
             builder.build_finer(edge)?.0
         } else {
+            // Shadow lines only where the image shows them (see
+            // `ShadowDetail::Display`).
             let settings = MeshSettings {
                 mesher,
                 max_edge: edge,
+                detail: ShadowDetail::Display(edge),
                 ..solved
             };
             MeshBuilder::new(device, scene, settings)?.build(&[])?.0
