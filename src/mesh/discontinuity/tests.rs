@@ -570,3 +570,33 @@ fn shadow_parallel_to_a_shared_edge_can_leave_a_t_junction() {
     let (mesh, _) = mesh_of(&scene, &DiscontinuityOptions::default());
     check(&scene, &mesh);
 }
+
+/// `ShadowDetail::Display` keeps the lines on wide patches and drops them
+/// on narrow ones: on `simple`, with receivers wider than 5 (between the
+/// blocker's 3.3 and the floor's 14), the floor is meshed as with every line (the
+/// blocker's shadow is in it), the blocker gets no lines, and the mesh
+/// stays watertight.
+#[test]
+fn display_detail_keeps_the_lines_on_wide_patches_only() {
+    let scene = builtin("simple");
+    let (full, full_stats) = mesh_of(&scene, &DiscontinuityOptions::default());
+    let edge = 5.0 / DISPLAY_RECEIVER_WIDTH;
+    let detail = ShadowDetail::Display(edge);
+    let receivers = detail.receivers(&scene);
+    assert_eq!(receivers, vec![true, false, false], "floor, blocker, light");
+    let (shown, stats) = mesh_of(
+        &scene,
+        &DiscontinuityOptions {
+            detail,
+            ..Default::default()
+        },
+    );
+    check(&scene, &shown);
+    assert_eq!((full_stats.receivers, stats.receivers), (2, 1));
+    let count = |m: &Mesh, p: usize| m.patch_elements[p].len();
+    assert!(count(&full, 0) > 4, "the floor has the shadow's lines");
+    assert_eq!(count(&shown, 0), count(&full, 0));
+    // The blocker is seen by the light too, but gets no lines of its own.
+    assert!(count(&shown, 1) <= count(&full, 1));
+    assert_eq!(count(&shown, 1), 1, "one triangle");
+}
