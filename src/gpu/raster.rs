@@ -130,17 +130,37 @@ pub fn render_lit_mesh(
     )?;
     bindings.bind_buffer(0, vk::DescriptorType::STORAGE_BUFFER, infos.raw());
     bindings.bind_buffer(1, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
-    let desc = |topology| GraphicsDesc {
-        vertex: shaders::RENDER_VERT,
-        fragment: shaders::RENDER_FRAG,
-        vertex_stride: std::mem::size_of::<LitVertex>() as u32,
-        attributes: &[
+    // A scene without textures is drawn by shaders without their inputs:
+    // on lavapipe the textured pair made the Cornell box's final render
+    // 1.66 s against 0.95 s.
+    let textured = !textures.infos.is_empty();
+    let attributes: &[(u32, vk::Format, u32)] = if textured {
+        &[
             (0, vk::Format::R32G32B32_SFLOAT, 0),
             (1, vk::Format::R32G32B32_SFLOAT, 12),
             (2, vk::Format::R32G32B32_SFLOAT, 24),
             (3, vk::Format::R32G32_SFLOAT, 36),
             (4, vk::Format::R32_UINT, 44),
-        ],
+        ]
+    } else {
+        &[
+            (0, vk::Format::R32G32B32_SFLOAT, 0),
+            (1, vk::Format::R32G32B32_SFLOAT, 12),
+        ]
+    };
+    let desc = |topology| GraphicsDesc {
+        vertex: if textured {
+            shaders::RENDER_VERT
+        } else {
+            shaders::RENDER_PLAIN_VERT
+        },
+        fragment: if textured {
+            shaders::RENDER_FRAG
+        } else {
+            shaders::RENDER_PLAIN_FRAG
+        },
+        vertex_stride: std::mem::size_of::<LitVertex>() as u32,
+        attributes,
         color_format: COLOR_FORMAT,
         depth_format: DEPTH_FORMAT,
         depth_compare: vk::CompareOp::GREATER,
