@@ -653,10 +653,7 @@ fn pick(
     let listing = || {
         devices
             .iter()
-            .map(|(_, d)| match &d.usable {
-                Ok(()) => format!("  [{}] {} ({})", d.index, d.name, d.kind),
-                Err(why) => format!("  [{}] {} ({}): {why}", d.index, d.name, d.kind),
-            })
+            .map(|(_, d)| format!("  [{}] {} ({})", d.index, d.name, d.kind))
             .collect::<Vec<_>>()
             .join("\n")
     };
