@@ -490,7 +490,7 @@ pub fn run_scene(
     let mut gpu_times = solution.times.clone();
     // Whenever light is left unshot (a preview, an interrupt, or a run that
     // converged to a tolerance), the ambient term stands in for it.
-    let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&scene, &mesh));
+    let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&mesh));
     let t = Instant::now();
     let request = DisplayRequest {
         edge: job.display_edge,
@@ -539,7 +539,7 @@ pub fn run_scene(
             // their light before it is gathered.
             let mut sources = solution.radiosity.clone();
             if let Some(a) = ambient {
-                add_ambient_to_elements(&scene, &mesh, &mut sources, a);
+                add_ambient_to_elements(&solution.reflectance, &mut sources, a);
             }
             let tree = ShooterTree::new(&scene, &mesh);
             let mut tick = |done: usize, total: usize| {

@@ -225,6 +225,11 @@ pub fn solve_batched(
     let start = Instant::now();
     let gpu_mesh = GpuMesh::new(scene, mesh);
     let mut unshot = gpu_mesh.emission.clone();
+    let reflectance = gpu_mesh
+        .reflectance_area
+        .iter()
+        .map(|r| glam::Vec3::new(r[0], r[1], r[2]))
+        .collect();
     let mut shots_engine = Shots::new(
         device,
         scene,
@@ -421,6 +426,7 @@ pub fn solve_batched(
         radiosity: shot.radiosity,
         vertex_radiosity: shot.vertex_radiosity,
         unshot: unshot.iter().map(|u| [u[0], u[1], u[2]]).collect(),
+        reflectance,
         shots,
         residual: unshot_power / emitted_power,
         unshot_share: share,

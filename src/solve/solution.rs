@@ -33,6 +33,9 @@ pub struct Solution {
     /// Unshot radiosity per element at the end (rgb): what an ambient term
     /// stands in for in a preview.
     pub unshot: Vec<[f32; 3]>,
+    /// The mean reflectance of each element the solve used (Kd times its
+    /// texture's mean over the element), computed once for the solve.
+    pub reflectance: Vec<Vec3>,
     /// Residual before the first shot and after each shot.
     pub residual_history: Vec<f64>,
     /// Emitted power (mean over rgb) in the scene's units.
@@ -75,10 +78,14 @@ impl Solution {
     /// ambient = sum(B_unshot A) / sum(A) x (r / rho) / (1 - r), per channel
     /// (with rho where nothing was shot yet). Added as rho * ambient to what
     /// is shown ([`add_ambient`]).
-    pub fn ambient(&self, scene: &Scene, mesh: &Mesh) -> Vec3 {
+    pub fn ambient(&self, mesh: &Mesh) -> Vec3 {
         let (mut power, mut reflected, mut area) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
-        let element_rho = mesh.element_reflectance(scene);
-        for ((e, u), rho) in mesh.elements.iter().zip(&self.unshot).zip(element_rho) {
+        for ((e, u), &rho) in mesh
+            .elements
+            .iter()
+            .zip(&self.unshot)
+            .zip(&self.reflectance)
+        {
             power += Vec3::from(*u) * e.area;
             reflected += rho * e.area;
             area += e.area;
@@ -115,15 +122,9 @@ pub fn add_ambient(scene: &Scene, mesh: &Mesh, radiosity: &mut [[f32; 3]], ambie
 }
 
 /// Adds `rho * ambient` to every element's radiosity, each with its own
-/// mean reflectance.
-pub fn add_ambient_to_elements(
-    scene: &Scene,
-    mesh: &Mesh,
-    radiosity: &mut [[f32; 3]],
-    ambient: Vec3,
-) {
-    let rho = mesh.element_reflectance(scene);
-    for (b, rho) in radiosity.iter_mut().zip(rho) {
+/// mean reflectance `rho` ([`Solution::reflectance`]).
+pub fn add_ambient_to_elements(rho: &[Vec3], radiosity: &mut [[f32; 3]], ambient: Vec3) {
+    for (b, &rho) in radiosity.iter_mut().zip(rho) {
         *b = (Vec3::from(*b) + rho * ambient).to_array();
     }
 }

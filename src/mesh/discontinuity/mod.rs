@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec2;
 
-use super::sanity::shared_edges;
+use super::sanity::{patch_size, shared_edges};
 use super::{remove_t_junctions, Mesh};
 use crate::error::{Error, Result};
 use crate::scene::Scene;
@@ -81,13 +81,9 @@ impl ShadowDetail {
             .iter()
             .map(|p| match *self {
                 ShadowDetail::Full => true,
+                // `!(<=)`: a NaN edge makes every patch a receiver.
                 ShadowDetail::Display(edge) => {
-                    let (lo, hi) = p.vertices.iter().fold(
-                        (glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN)),
-                        |(lo, hi), v| (lo.min(*v), hi.max(*v)),
-                    );
-                    // `!(<=)`: a NaN edge makes every patch a receiver.
-                    !((hi - lo).length() <= DISPLAY_RECEIVER_WIDTH * edge)
+                    !(patch_size(&p.vertices) <= f64::from(DISPLAY_RECEIVER_WIDTH * edge))
                 }
             })
             .collect()
