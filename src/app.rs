@@ -186,6 +186,9 @@ pub struct Report {
     /// The Jacobi passes the final gather ran (at most the job's; fewer
     /// where the solve's residual needed fewer).
     pub gather_passes: Option<usize>,
+    /// Display points that took the light reflected onto them from the
+    /// element centres, and points that gathered it (`--reflected-reuse`).
+    pub reflected_reuse: (usize, usize),
 }
 
 const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
@@ -278,6 +281,7 @@ impl Report {
             },
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,
+            "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
             "outputs": {
                 "image": self.output.display().to_string(),
                 "mesh": self.export.as_ref().map(|p| p.display().to_string()),
@@ -533,6 +537,7 @@ pub fn run_scene(
         },
         ..g
     });
+    let mut reflected_reuse = (0, 0);
     let shown = match &final_gather {
         Some(settings) if interrupted.is_none() => {
             // Gathered from the elements as shown: the ambient term joins
@@ -551,7 +556,7 @@ pub fn run_scene(
             };
             let vertices = display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len();
             // The stage starts now: its rate and ETA count from here.
-            let planned = settings.source_passes * mesh.elements.len() + vertices;
+            let planned = settings.centre_gathers() * mesh.elements.len() + vertices;
             let started = tick(0, planned);
             let mut meter = Meter::new(planned, &mut tick);
             let shaded = if !started {
@@ -559,23 +564,27 @@ pub fn run_scene(
             } else {
                 match FinalGather::metered(&scene, &mesh, &tree, &sources, settings, &mut meter) {
                     None => Shaded::Nothing,
-                    Some(gather) => match display.as_mut() {
-                        Some(display) => shade_display(
-                            &scene,
-                            &gather,
-                            display,
-                            job.display_refinements,
-                            &mut meter,
-                        ),
-                        None => match gather.at_vertices_metered(
-                            &mesh,
-                            &mut VertexCache::default(),
-                            &mut meter,
-                        ) {
-                            Some(values) => Shaded::Done(values),
-                            None => Shaded::Nothing,
-                        },
-                    },
+                    Some(gather) => {
+                        let shaded = match display.as_mut() {
+                            Some(display) => shade_display(
+                                &scene,
+                                &gather,
+                                display,
+                                job.display_refinements,
+                                &mut meter,
+                            ),
+                            None => match gather.at_vertices_metered(
+                                &mesh,
+                                &mut VertexCache::default(),
+                                &mut meter,
+                            ) {
+                                Some(values) => Shaded::Done(values),
+                                None => Shaded::Nothing,
+                            },
+                        };
+                        reflected_reuse = gather.reflected_reuse();
+                        shaded
+                    }
                 }
             };
             match shaded {
@@ -663,5 +672,6 @@ pub fn run_scene(
         gpu_times,
         interrupted,
         gather_passes: final_gather.map(|g| g.source_passes),
+        reflected_reuse,
     })
 }

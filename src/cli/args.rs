@@ -252,6 +252,14 @@ pub(crate) struct RenderArgs {
     /// factors (their error shrinks by about the mean reflectance per pass).
     #[arg(long, default_value_t = VertexGather::default().source_passes, value_name = "N")]
     pub(crate) gather_passes: usize,
+    /// How far a display point may take the light reflected onto it from
+    /// the element centres of the last Jacobi pass instead of gathering
+    /// it (Ward's irradiance-cache error bound: distance over the
+    /// reflecting surfaces' harmonic mean distance, plus the turn of the
+    /// normal); it still gathers its direct light. 0: every point gathers
+    /// all of its light.
+    #[arg(long, default_value_t = VertexGather::default().reuse, value_name = "ERROR")]
+    pub(crate) reflected_reuse: f32,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
     /// the default --max-edge; at most --max-edge).

@@ -72,6 +72,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.ambient = !args.no_ambient;
     job.final_gather = (!args.no_final_gather).then(|| VertexGather {
         source_passes: args.gather_passes,
+        reuse: args.reflected_reuse,
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

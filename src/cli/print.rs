@@ -76,11 +76,17 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         ),
         _ => {}
     }
-    let passes = match r.gather_passes {
+    let mut passes = match r.gather_passes {
         Some(1) => ", after 1 Jacobi pass at the element centres".to_string(),
         Some(n) => format!(", after {n} Jacobi passes at the element centres"),
         None => String::new(),
     };
+    if let (reused @ 1.., gathered) = r.reflected_reuse {
+        passes += &format!(
+            "; {:.0}% took their reflected light from the centres (--reflected-reuse)",
+            100.0 * reused as f64 / (reused + gathered) as f64
+        );
+    }
     match &r.display_mesh {
         Some(d) => println!(
             "  display   {} elements, {} vertices, each vertex gathered from the solved elements{passes} (--display-mesh, --display-edge)",

@@ -11,6 +11,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
+use super::reflected_cache::HarmonicDistance;
 use super::{is_even, Source};
 use crate::formfactor::raytrace::Occluders;
 use crate::solve::hierarchy::ShooterTree;
@@ -40,15 +41,15 @@ struct Representative {
 
 #[derive(Debug, Clone)]
 pub(super) struct Cluster {
-    centre: Vec3,
-    radius: f32,
+    pub(super) centre: Vec3,
+    pub(super) radius: f32,
     /// Child clusters, or none for a leaf.
     pub(super) children: Option<[u32; 2]>,
     /// A leaf's patch root nodes.
     pub(super) roots: Vec<u32>,
     representatives: Vec<Representative>,
     /// Any emitting patch: never taken whole (shadows need its area).
-    emits: bool,
+    pub(super) emits: bool,
     /// Range of its elements' radiosity levels (sum of rgb).
     lo: f32,
     hi: f32,
@@ -223,12 +224,14 @@ impl Cluster {
         (self.hi <= 0.0 && !self.emits) || (self.centre - p).dot(n) < -self.radius
     }
 
-    /// Sum of B F V over its representatives.
+    /// Sum of B F V over its representatives (their distances added to
+    /// `distance`, when given).
     pub(super) fn gather(
         &self,
         (p, n, patch): (Vec3, Vec3, u32),
         sources: &[Source],
         occluders: &Occluders,
+        mut distance: Option<&mut HarmonicDistance>,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for r in &self.representatives {
@@ -240,7 +243,11 @@ impl Cluster {
             }
             let src = &sources[r.node as usize];
             if occluders.visible(p, r.point, [patch, src.patch]) {
-                sum += src.radiosity * (r.area * cos_v * cos_s / (PI * r2 * r2));
+                let ff = r.area * cos_v * cos_s / (PI * r2 * r2);
+                sum += src.radiosity * ff;
+                if let Some(distance) = distance.as_deref_mut() {
+                    distance.add(ff, r2.sqrt());
+                }
             }
         }
         sum

@@ -26,6 +26,7 @@
 use std::f32::consts::PI;
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -33,6 +34,7 @@ use rayon::prelude::*;
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
 use self::receiver::{fan_of, Receiver};
+use self::reflected_cache::{HarmonicDistance, Record, ReflectedCache};
 use super::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
@@ -64,6 +66,18 @@ pub struct VertexGather {
     /// when the estimated error of doing so is at most this share of the
     /// scene's mean radiosity (0: only even clusters are).
     pub link_error: f32,
+    /// Ward's error bound for taking a display point's reflected light
+    /// from the element centres of the last pass ([`reflected_cache`]);
+    /// 0: every point gathers all of its light.
+    pub reuse: f32,
+}
+
+impl VertexGather {
+    /// How many times the gather visits every element centre: the Jacobi
+    /// passes, and one more for the reflected cache's records.
+    pub fn centre_gathers(&self) -> usize {
+        self.source_passes + usize::from(self.reuse > 0.0)
+    }
 }
 
 impl Default for VertexGather {
@@ -75,6 +89,7 @@ impl Default for VertexGather {
             uniformity: 1.5,
             source_passes: 8,
             link_error: LINK_ERROR,
+            reuse: REUSE,
         }
     }
 }
@@ -113,6 +128,9 @@ const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 /// gives 1.16%, mean -0.04%; on `curved.obj` 0.36 against 0.89 ms, mean
 /// -0.05%; the Cornell box unchanged.
 pub const LINK_ERROR: f32 = 0.01;
+
+/// Default [`VertexGather::reuse`].
+pub const REUSE: f32 = 0.5;
 
 /// How far inside a light its corner rays aim (a share of the way to its
 /// centre): off the light's own edge, which may touch the ceiling around it.
@@ -291,6 +309,8 @@ impl<'a> FinalGather<'a> {
             settings: *settings,
             patch_rho: scene.patch_reflectances(),
             element_rho: solved.element_reflectance(scene),
+            reflected_cache: None,
+            reused: [AtomicUsize::new(0), AtomicUsize::new(0)],
         };
         // Each pass at the elements (the centre of their exposed part) is a
         // Jacobi step with exact form factors: it corrects the solve's
@@ -311,6 +331,26 @@ impl<'a> FinalGather<'a> {
             }
             gather.sources = sources(scene, solved, tree, &corrected, &exposed);
             gather.clusters.relight(&gather.sources);
+        }
+        // The reflected light at the centres, from the final sources (the
+        // display points gather their direct light from these too).
+        if settings.reuse > 0.0 {
+            let gathered = gather.gather_points(&frames, Some(&gather.element_rho), true, meter)?;
+            let records = frames
+                .iter()
+                .zip(&gathered)
+                .zip(exposed.iter().zip(&solved.elements))
+                .filter(|(_, (part, _))| part.share > 0.0)
+                .map(|((&(point, normal, patch), (_, g)), (_, e))| Record {
+                    point,
+                    normal,
+                    patch,
+                    width: (2.0 * e.area).sqrt(),
+                    reach: g.reach(),
+                    reflected: g.reflected,
+                })
+                .collect();
+            gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
         }
         Some(FinalGather { gather })
     }
@@ -385,6 +425,17 @@ impl<'a> FinalGather<'a> {
             .expect("an unwatched meter never stops")
     }
 
+    /// How many points so far took their reflected light from the
+    /// element centres' cache, and how many gathered it themselves (both
+    /// 0 without a cache).
+    pub fn reflected_reuse(&self) -> (usize, usize) {
+        let [reused, gathered] = &self.gather.reused;
+        (
+            reused.load(Ordering::Relaxed),
+            gathered.load(Ordering::Relaxed),
+        )
+    }
+
     /// [`FinalGather::at_points`], counting them on `meter`.
     pub fn at_points_metered(
         &self,
@@ -411,6 +462,61 @@ struct Gather<'a> {
     /// its own.
     patch_rho: Vec<Vec3>,
     element_rho: Vec<Vec3>,
+    /// The last pass's reflected light at the element centres, for the
+    /// display points (`None` during the passes).
+    reflected_cache: Option<ReflectedCache>,
+    /// Points since the cache was built that took their reflected light
+    /// from it, and that gathered it.
+    reused: [AtomicUsize; 2],
+}
+
+/// Which sources a point gathers from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Sources {
+    All,
+    /// Only the emitting ones (the rest comes from the reflected cache).
+    Emitting,
+    /// All, measuring [`Gathered::clearance`] too (the cache's records).
+    Recording,
+}
+
+/// A point's gathered light, split by the kind of source.
+#[derive(Debug, Clone, Copy)]
+struct Gathered {
+    /// Sum of B F V over emitting sources.
+    direct: Vec3,
+    /// ... and over the others.
+    reflected: Vec3,
+    /// How far the reflecting sources are.
+    distance: HarmonicDistance,
+    /// The distance to the nearest surface met (measured only when
+    /// recording).
+    clearance: f32,
+}
+
+impl Default for Gathered {
+    fn default() -> Self {
+        Gathered {
+            direct: Vec3::ZERO,
+            reflected: Vec3::ZERO,
+            distance: HarmonicDistance::default(),
+            clearance: f32::INFINITY,
+        }
+    }
+}
+
+impl Gathered {
+    fn total(&self) -> Vec3 {
+        self.direct + self.reflected
+    }
+
+    /// How far from its point this light may be reused: the reflecting
+    /// sources' harmonic mean distance (Ward 1988), or the nearest
+    /// surface when that is nearer (an occluder that sends no light to
+    /// the point still changes the light around it).
+    fn reach(&self) -> f32 {
+        self.distance.mean().min(self.clearance.max(0.0))
+    }
 }
 
 impl Gather<'_> {
@@ -423,6 +529,19 @@ impl Gather<'_> {
         rho: Option<&[Vec3]>,
         meter: &mut Meter,
     ) -> Option<Vec<[f32; 3]>> {
+        let gathered = self.gather_points(frames, rho, false, meter)?;
+        Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
+    }
+
+    /// [`Self::at_points`] with each point's gathered light by kind;
+    /// `recording`: measure how far each one's light holds.
+    fn gather_points(
+        &self,
+        frames: &[Frame],
+        rho: Option<&[Vec3]>,
+        recording: bool,
+        meter: &mut Meter,
+    ) -> Option<Vec<(Vec3, Gathered)>> {
         let mut out = Vec::with_capacity(frames.len());
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
             out.par_extend(chunk.par_iter().enumerate().map(|(i, frame)| {
@@ -435,7 +554,7 @@ impl Gather<'_> {
                         .copied()
                         .unwrap_or_default(),
                 };
-                self.at_frame(k, frame, rho)
+                self.at_frame(k, frame, rho, recording)
             }));
             if !meter.advance(chunk.len()) {
                 return None;
@@ -445,27 +564,54 @@ impl Gather<'_> {
     }
 
     /// Radiosity at frame number `k` (which seeds its rays), of
-    /// reflectance `rho`.
-    fn at_frame(&self, k: usize, &(p, n, patch): &Frame, rho: Vec3) -> [f32; 3] {
+    /// reflectance `rho`, and the light gathered there. Its reflected
+    /// light comes from the cache where a record is valid.
+    fn at_frame(
+        &self,
+        k: usize,
+        &(p, n, patch): &Frame,
+        rho: Vec3,
+        recording: bool,
+    ) -> (Vec3, Gathered) {
         let Some(surface) = self.scene.patches.get(patch as usize) else {
-            return [0.0; 3];
+            return (Vec3::ZERO, Gathered::default());
         };
         let material = self.scene.material_of(surface);
-        let mut gathered = Vec3::ZERO;
+        let mut gathered = Gathered::default();
         if rho.max_element() > 0.0 {
             let at = Receiver { p, n, patch };
             let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
-            gathered = self.at_point(&at, true, &mut rng);
+            let cached = self
+                .reflected_cache
+                .as_ref()
+                .and_then(|cache| cache.lookup(p, n, patch));
+            if self.reflected_cache.is_some() {
+                self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
+            }
+            gathered = match cached {
+                Some(reflected) => Gathered {
+                    reflected,
+                    ..self.at_point(&at, true, Sources::Emitting, &mut rng)
+                },
+                None if recording => self.at_point(&at, true, Sources::Recording, &mut rng),
+                None => self.at_point(&at, true, Sources::All, &mut rng),
+            };
         }
-        (material.emission * PI + rho * gathered).to_array()
+        (material.emission * PI + rho * gathered.total(), gathered)
     }
 
     /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
     /// a leaf that fills much of the view takes the radiosity at its
     /// point beside the receiver instead of its mean ([`Self::beside`]).
-    fn at_point(&self, at: &Receiver, look_closer: bool, rng: &mut Pcg32) -> Vec3 {
+    fn at_point(
+        &self,
+        at: &Receiver,
+        look_closer: bool,
+        wanted: Sources,
+        rng: &mut Pcg32,
+    ) -> Gathered {
         let settings = &self.settings;
-        let mut gathered = Vec3::ZERO;
+        let mut gathered = Gathered::default();
         // Clusters of patches first: far, even ones whole, the rest down
         // to their patches' root nodes.
         let mut stack: Vec<u32> = Vec::new();
@@ -476,12 +622,21 @@ impl Gather<'_> {
         };
         while let Some(c) = clusters.pop() {
             let cluster = &self.clusters.nodes[c as usize];
-            if cluster.unseen(at.p, at.n) {
+            if cluster.unseen(at.p, at.n) || (wanted == Sources::Emitting && !cluster.emits) {
                 continue;
             }
             let tolerance = settings.link_error * self.clusters.level;
             if cluster.takes_whole(at.p, at.n, settings.uniformity, tolerance) {
-                gathered += cluster.gather((at.p, at.n, at.patch), &self.sources, &self.occluders);
+                if wanted == Sources::Recording {
+                    let clearance = at.p.distance(cluster.centre) - cluster.radius;
+                    gathered.clearance = gathered.clearance.min(clearance);
+                }
+                gathered.reflected += cluster.gather(
+                    (at.p, at.n, at.patch),
+                    &self.sources,
+                    &self.occluders,
+                    (wanted == Sources::Recording).then_some(&mut gathered.distance),
+                );
                 continue;
             }
             match cluster.children {
@@ -495,6 +650,9 @@ impl Gather<'_> {
                 continue;
             }
             let src = &self.sources[n as usize];
+            if wanted == Sources::Emitting && !src.emits {
+                continue;
+            }
             let even = is_even(src.lo, src.hi, settings.uniformity);
             let distance = at.p.distance(node.centre);
             let near = node.radius > NEAR_RADIUS * distance;
@@ -502,14 +660,27 @@ impl Gather<'_> {
             // its dark mean may hide a lit sliver (elements under a box but
             // for a strip along its foot) that `beside` finds in its leaves.
             let look_beside = look_closer && near && src.covered;
-            if !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside {
-                continue;
-            }
-            if !at.faces(node.centre, node.normal, &node.polygon) {
-                continue;
-            }
+            let dark = !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside;
+            let faces = at.faces(node.centre, node.normal, &node.polygon);
             let far = node.radius <= settings.opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
+            // The distance to its nearest point, when recording.
+            let mut nearest = f32::INFINITY;
+            if wanted == Sources::Recording && (dark || !faces || take_whole) {
+                // Every surface near the point bounds how far its light
+                // holds, whether it sends light, shows its back (a light
+                // hung just under a ceiling) or is dark.
+                let q = nearest_in_polygon(
+                    &node.polygon,
+                    node.normal,
+                    at.p - (at.p - node.centre).dot(node.normal) * node.normal,
+                );
+                nearest = at.p.distance(q);
+                gathered.clearance = gathered.clearance.min(nearest);
+            }
+            if dark || !faces {
+                continue;
+            }
             if !take_whole {
                 stack.extend_from_slice(&node.children);
                 continue;
@@ -522,7 +693,14 @@ impl Gather<'_> {
                     radiosity = radiosity.lerp(b, w);
                 }
             }
-            gathered += radiosity * ff;
+            if src.emits {
+                gathered.direct += radiosity * ff;
+            } else {
+                gathered.reflected += radiosity * ff;
+                if wanted == Sources::Recording {
+                    gathered.distance.add(ff, nearest);
+                }
+            }
         }
         gathered
     }
@@ -576,7 +754,8 @@ impl Gather<'_> {
             n: node.normal,
             patch: node.patch,
         };
-        Some(material.emission * PI + rho * self.at_point(&there, false, rng))
+        let gathered = self.at_point(&there, false, Sources::All, rng);
+        Some(material.emission * PI + rho * gathered.total())
     }
 }
 
@@ -649,5 +828,6 @@ pub mod display;
 mod exposure;
 mod receiver;
 pub mod refine;
+mod reflected_cache;
 #[cfg(test)]
 mod tests;
