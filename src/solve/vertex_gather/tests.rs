@@ -582,11 +582,31 @@ fn inside_elements(mesh: &Mesh, step: usize) -> Vec<Frame> {
         .collect()
 }
 
+/// Gathered values at some points, and the reused and gathered counts.
+type Compared = (Vec<[f32; 3]>, Vec<[f32; 3]>, (usize, usize));
+
+/// The gather at `frames` after one Jacobi pass, with the default reuse of
+/// the reflected light and without; and the reused and gathered counts.
+fn with_and_without_reuse(s: &Scene, mesh: &Mesh, b: &[[f32; 3]], frames: &[Frame]) -> Compared {
+    let tree = ShooterTree::new(s, mesh);
+    let reusing = VertexGather {
+        source_passes: 1,
+        ..VertexGather::default()
+    };
+    let with = FinalGather::new(s, mesh, &tree, b, &reusing);
+    let got = with.at_points(frames);
+    let gathering = VertexGather {
+        reuse: 0.0,
+        ..reusing
+    };
+    let want = FinalGather::new(s, mesh, &tree, b, &gathering).at_points(frames);
+    (got, want, with.reflected_reuse())
+}
+
 #[test]
 fn reusing_the_reflected_light_changes_the_cornell_box_by_little() {
     let s = crate::scene::load_builtin("cornell").unwrap().unwrap();
     let mesh = uniform(&s, crate::mesh::default_max_edge(&s));
-    let tree = ShooterTree::new(&s, &mesh);
     // Light that varies across the room, so that the reflected light has
     // a slope to keep.
     let b: Vec<[f32; 3]> = mesh
@@ -599,19 +619,8 @@ fn reusing_the_reflected_light_changes_the_cornell_box_by_little() {
             },
         )
         .collect();
-    let reusing = VertexGather {
-        source_passes: 1,
-        ..VertexGather::default()
-    };
-    let gathering = VertexGather {
-        reuse: 0.0,
-        ..reusing
-    };
     let frames = inside_elements(&mesh, 3);
-    let with = FinalGather::new(&s, &mesh, &tree, &b, &reusing);
-    let got = with.at_points(&frames);
-    let want = FinalGather::new(&s, &mesh, &tree, &b, &gathering).at_points(&frames);
-    let (reused, gathered) = with.reflected_reuse();
+    let (got, want, (reused, gathered)) = with_and_without_reuse(&s, &mesh, &b, &frames);
     let (mut d2, mut r2) = (0.0f64, 0.0f64);
     for (g, w) in got.iter().zip(&want) {
         d2 += ((g[0] - w[0]) as f64).powi(2);
@@ -658,7 +667,6 @@ fn a_light_hung_under_the_ceiling_keeps_the_ceiling_beside_it_gathered() {
     let light_patch = s.patches.len() - 1;
     s.patches[light_patch].material = 1;
     let mesh = uniform(&s, 0.5);
-    let tree = ShooterTree::new(&s, &mesh);
     let b: Vec<[f32; 3]> = mesh
         .elements
         .iter()
@@ -670,14 +678,6 @@ fn a_light_hung_under_the_ceiling_keeps_the_ceiling_beside_it_gathered() {
             }; 3]
         })
         .collect();
-    let reusing = VertexGather {
-        source_passes: 1,
-        ..VertexGather::default()
-    };
-    let gathering = VertexGather {
-        reuse: 0.0,
-        ..reusing
-    };
     // Ceiling points around the light, from just past its edge outwards.
     let ceiling = s
         .patches
@@ -691,8 +691,7 @@ fn a_light_hung_under_the_ceiling_keeps_the_ceiling_beside_it_gathered() {
                 .map(|d| (Vec3::new(0.25, 2.0, 0.25) + out * d, -Vec3::Y, ceiling))
         })
         .collect();
-    let got = FinalGather::new(&s, &mesh, &tree, &b, &reusing).at_points(&frames);
-    let want = FinalGather::new(&s, &mesh, &tree, &b, &gathering).at_points(&frames);
+    let (got, want, _) = with_and_without_reuse(&s, &mesh, &b, &frames);
     for ((g, w), f) in got.iter().zip(&want).zip(&frames) {
         assert!(
             (g[0] - w[0]).abs() <= 0.02 * w[0],
