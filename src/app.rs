@@ -559,6 +559,7 @@ pub fn run_scene(
             let planned = settings.centre_gathers() * mesh.elements.len() + vertices;
             let started = tick(0, planned);
             let mut meter = Meter::new(planned, &mut tick);
+            meter.trace = trace;
             let shaded = if !started {
                 Shaded::Nothing
             } else {

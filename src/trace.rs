@@ -11,6 +11,11 @@
 //! timestamp queries put on this trace's clock). The clock is
 //! [`Instant`], in microseconds since [`Trace::new`].
 //!
+//! Parallel CPU work (rayon) is traced per loop with [`par_spans`] and
+//! [`TracedMap::traced`]: each worker that takes part gets one span on its own track,
+//! from the start of its first piece of the loop to the end of its last,
+//! measured once per piece that rayon splits the loop into, not per item.
+//!
 //! Off (no `Trace`), nothing here runs: every caller holds an
 //! `Option<Arc<Trace>>` and records only through `Some`.
 
@@ -19,6 +24,7 @@ use std::sync::Mutex;
 use std::thread::ThreadId;
 use std::time::Instant;
 
+use rayon::iter::{Either, IndexedParallelIterator};
 use serde_json::{json, Map, Value};
 
 /// The `pid` of every event: the run is one process.
@@ -120,9 +126,10 @@ impl Trace {
         if let Some(i) = threads.iter().position(|(t, _)| *t == id) {
             return i as u64 + 1;
         }
-        let name = match std::thread::current().name() {
-            Some(n) => format!("CPU {n}"),
-            None => format!("CPU thread {}", threads.len() + 1),
+        let name = match (std::thread::current().name(), rayon::current_thread_index()) {
+            (Some(n), _) => format!("CPU {n}"),
+            (None, Some(i)) => format!("CPU rayon worker {i}"),
+            (None, None) => format!("CPU thread {}", threads.len() + 1),
         };
         threads.push((id, name));
         threads.len() as u64
@@ -276,9 +283,157 @@ pub fn span_since(
     }
 }
 
+/// One parallel loop's spans, one per rayon worker that took part
+/// ([`par_spans`]); they are recorded when this is dropped.
+pub struct ParSpans<'a> {
+    trace: &'a Trace,
+    name: &'static str,
+    args: Value,
+    /// One per worker of the pool the loop runs on, and a last one for a
+    /// thread outside it.
+    slots: Vec<Slot>,
+}
+
+/// A worker's share of a loop, on its own cache line (workers update
+/// their slots concurrently).
+#[repr(align(128))]
+struct Slot {
+    /// Its track (0: it has not worked on this loop).
+    tid: AtomicU64,
+    /// Nanoseconds of the trace's clock.
+    first_ns: AtomicU64,
+    last_ns: AtomicU64,
+    busy_ns: AtomicU64,
+    pieces: AtomicU64,
+    items: AtomicU64,
+}
+
+/// Spans of a parallel loop named `name` (`args`, built only when
+/// tracing, go into each), or `None` without a trace. Pass it to
+/// [`TracedMap::traced`] around the loop's iterator; the spans are recorded when it
+/// is dropped, after the loop.
+pub fn par_spans<'a>(
+    trace: Option<&'a Trace>,
+    name: &'static str,
+    args: impl FnOnce() -> Value,
+) -> Option<ParSpans<'a>> {
+    let trace = trace?;
+    let slots = (0..=rayon::current_num_threads())
+        .map(|_| Slot {
+            tid: AtomicU64::new(0),
+            first_ns: AtomicU64::new(u64::MAX),
+            last_ns: AtomicU64::new(0),
+            busy_ns: AtomicU64::new(0),
+            pieces: AtomicU64::new(0),
+            items: AtomicU64::new(0),
+        })
+        .collect();
+    Some(ParSpans {
+        trace,
+        name,
+        args: args(),
+        slots,
+    })
+}
+
+/// `map` on a parallel iterator, traced: `iter.traced(&spans, f)`
+/// is `iter.map(f)` with each piece that rayon splits it into timed into
+/// `spans` (from [`par_spans`]) when there are some; without, it is
+/// `iter.map(f)` behind one branch.
+pub trait TracedMap: IndexedParallelIterator {
+    fn traced<'s, F, R>(
+        self,
+        spans: &'s Option<ParSpans<'_>>,
+        f: F,
+    ) -> impl IndexedParallelIterator<Item = R> + 's
+    where
+        Self: 's,
+        F: Fn(Self::Item) -> R + Sync + Send + 's,
+        R: Send,
+    {
+        match spans {
+            None => Either::Left(self.map(f)),
+            Some(spans) => Either::Right(self.map_init(
+                move || Piece {
+                    spans,
+                    start: Instant::now(),
+                    items: 0,
+                },
+                move |piece, item| {
+                    piece.items += 1;
+                    f(item)
+                },
+            )),
+        }
+    }
+}
+
+impl<I: IndexedParallelIterator> TracedMap for I {}
+
+/// One piece of a traced loop on one worker: timed from its creation to
+/// its drop, both on that worker.
+struct Piece<'s> {
+    spans: &'s ParSpans<'s>,
+    start: Instant,
+    items: u64,
+}
+
+impl Drop for Piece<'_> {
+    fn drop(&mut self) {
+        let spans = self.spans;
+        let end = Instant::now();
+        let last = spans.slots.len() - 1;
+        let slot = &spans.slots[rayon::current_thread_index().map_or(last, |i| i.min(last))];
+        if slot.tid.load(Ordering::Relaxed) == 0 {
+            slot.tid.store(spans.trace.cpu_tid(), Ordering::Relaxed);
+        }
+        let (a, b) = (spans.trace.ns(self.start), spans.trace.ns(end));
+        let (a, b) = (a.max(0.0) as u64, b.max(0.0) as u64);
+        slot.first_ns.fetch_min(a, Ordering::Relaxed);
+        slot.last_ns.fetch_max(b, Ordering::Relaxed);
+        slot.busy_ns
+            .fetch_add(b.saturating_sub(a), Ordering::Relaxed);
+        slot.pieces.fetch_add(1, Ordering::Relaxed);
+        slot.items.fetch_add(self.items, Ordering::Relaxed);
+    }
+}
+
+impl Drop for ParSpans<'_> {
+    fn drop(&mut self) {
+        for (worker, slot) in self.slots.iter().enumerate() {
+            let pieces = slot.pieces.load(Ordering::Relaxed);
+            if pieces == 0 {
+                continue;
+            }
+            let (a, b) = (
+                slot.first_ns.load(Ordering::Relaxed) as f64,
+                slot.last_ns.load(Ordering::Relaxed) as f64,
+            );
+            let mut args = match &self.args {
+                Value::Object(m) => m.clone(),
+                _ => Map::new(),
+            };
+            args.insert("worker".into(), json!(worker));
+            args.insert("pieces".into(), json!(pieces));
+            args.insert("items".into(), json!(slot.items.load(Ordering::Relaxed)));
+            let busy = slot.busy_ns.load(Ordering::Relaxed) as f64;
+            args.insert("busy_us".into(), json!(busy / 1e3));
+            self.trace.push(Event {
+                name: self.name.to_string(),
+                cat: cat::RAYON,
+                tid: slot.tid.load(Ordering::Relaxed),
+                ts_us: a / 1e3,
+                dur_us: (b - a).max(0.0) / 1e3,
+                args: Value::Object(args),
+            });
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rayon::prelude::*;
 
     #[test]
     fn events_come_out_in_the_chrome_format() {
@@ -309,5 +464,52 @@ mod tests {
         assert_eq!(t.align_submission(GPU_TID, 400.0, 10.0), 400.0);
         // Another queue is independent.
         assert_eq!(t.align_submission(GPU_TID + 1, 0.0, 10.0), 0.0);
+    }
+
+    #[test]
+    fn a_parallel_loop_gives_one_span_per_worker_on_its_own_track() {
+        let t = Trace::new();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(2)
+            .build()
+            .unwrap();
+        let items: Vec<u64> = (0..64).collect();
+        let out: Vec<u64> = pool.install(|| {
+            let spans = par_spans(Some(&t), "work", || json!({ "chunk": 0 }));
+            items
+                .par_iter()
+                .with_max_len(1)
+                .traced(&spans, |&x| {
+                    std::thread::sleep(std::time::Duration::from_millis(2));
+                    x * 2
+                })
+                .collect()
+        });
+        assert_eq!(out, items.iter().map(|x| x * 2).collect::<Vec<_>>());
+        let v = t.to_json();
+        let events = v["traceEvents"].as_array().unwrap();
+        let spans: Vec<&Value> = events.iter().filter(|e| e["cat"] == cat::RAYON).collect();
+        assert!(!spans.is_empty() && spans.len() <= 2, "{spans:?}");
+        let counted: u64 = spans
+            .iter()
+            .map(|e| e["args"]["items"].as_u64().unwrap())
+            .sum();
+        assert_eq!(counted, 64);
+        for e in &spans {
+            assert_eq!(e["args"]["chunk"], 0);
+            let busy = e["args"]["busy_us"].as_f64().unwrap();
+            assert!(busy <= e["dur"].as_f64().unwrap() + 1e-3);
+            let tid = e["tid"].as_u64().unwrap();
+            assert!(events.iter().any(|m| m["name"] == "thread_name"
+                && m["tid"] == tid
+                && m["args"]["name"]
+                    .as_str()
+                    .unwrap()
+                    .starts_with("CPU rayon worker")));
+        }
+        // Without a trace, nothing is built and the loop is the same.
+        let none = par_spans(None, "work", || unreachable!());
+        let out: Vec<u64> = items.par_iter().traced(&none, |&x| x + 1).collect();
+        assert_eq!(out.len(), 64);
     }
 }

@@ -13,7 +13,7 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
     ("geom", &[]),
     ("scene", &["error", "geom"]),
     ("gpu", &["error", "trace"]),
-    ("mesh", &["error", "geom", "scene", "gpu"]),
+    ("mesh", &["error", "geom", "scene", "gpu", "trace"]),
     ("formfactor", &["error", "geom", "scene", "mesh"]),
     ("output", &["error", "mesh"]),
     (

@@ -1,7 +1,8 @@
 //! `--trace`: the Chrome trace-event file is valid JSON in the documented
 //! format, every GPU pass lies inside its submission (and each submission
 //! between its CPU submit and its fence), the labels reach the validation
-//! layer, the report's per-pass figures add up to the printed table, and
+//! layer, the report's per-pass figures add up to the printed table, the
+//! rayon workers' spans lie on their own tracks inside their stages, and
 //! with tracing and profiling off nothing is written for them.
 
 use std::collections::BTreeMap;
@@ -325,6 +326,98 @@ fn the_cli_writes_a_trace_and_the_reports_pass_figures_add_up_to_the_printed_tab
     }
     assert!((report_sum - table_sum).abs() <= 0.0005 * passes.len() as f64);
     assert_eq!(report["timing"]["source"], "gpu-timestamps");
+}
+
+/// The stages a rayon span of each name lies in.
+fn stages_of(span: &str) -> &'static [&'static str] {
+    match span {
+        "shaft culling" => &["mesh", "display mesh"],
+        "element-centre pass" | "gather points" => &["gather"],
+        other => panic!("a rayon span of no known stage: {other}"),
+    }
+}
+
+#[test]
+fn rayon_work_is_traced_per_worker_on_its_own_track_inside_its_stage() {
+    let dir = temp_dir("rayon");
+    let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
+        .args(["simple", "--size", "32x32", "--trace", "t.json"])
+        .env("RAYON_NUM_THREADS", "2")
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.join("t.json")).unwrap();
+    let trace: Value = serde_json::from_str(&text).expect("valid JSON");
+    let events = check_format(&trace);
+    let track_names: BTreeMap<u64, &str> = trace["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["name"] == "thread_name")
+        .map(|e| {
+            (
+                e["tid"].as_u64().unwrap(),
+                e["args"]["name"].as_str().unwrap(),
+            )
+        })
+        .collect();
+    let stages: Vec<&Value> = events.iter().filter(|e| e["cat"] == cat::STAGE).collect();
+    let rayon: Vec<&Value> = events.iter().filter(|e| e["cat"] == cat::RAYON).collect();
+    let mut tracks = BTreeMap::new();
+    for e in &rayon {
+        let name = e["name"].as_str().unwrap();
+        let tid = e["tid"].as_u64().unwrap();
+        assert!(
+            track_names
+                .get(&tid)
+                .is_some_and(|t| t.starts_with("CPU rayon worker")),
+            "{e} is not on a rayon worker's track: {track_names:?}"
+        );
+        *tracks.entry(tid).or_insert(0) += 1;
+        let (a, b) = (num(e, "ts"), num(e, "ts") + num(e, "dur"));
+        assert!(
+            stages.iter().any(|s| {
+                stages_of(name).contains(&s["name"].as_str().unwrap())
+                    && a >= num(s, "ts") - 1e-3
+                    && b <= num(s, "ts") + num(s, "dur") + 1e-3
+            }),
+            "{e} lies in none of its stages {:?}",
+            stages_of(name)
+        );
+        let args = &e["args"];
+        assert!(num(args, "busy_us") <= num(e, "dur") + 1e-3, "{e}");
+        let (pieces, items) = (
+            args["pieces"].as_u64().unwrap(),
+            args["items"].as_u64().unwrap(),
+        );
+        assert!(pieces >= 1 && items >= pieces, "{e}");
+    }
+    for name in ["shaft culling", "element-centre pass", "gather points"] {
+        assert!(rayon.iter().any(|e| e["name"] == name), "no {name} span");
+    }
+    assert!(
+        tracks.len() >= 2,
+        "two rayon threads, but their spans are on {tracks:?}"
+    );
+    // Every element-centre point of every pass is counted once.
+    let elements = stages.iter().find(|s| s["name"] == "mesh").unwrap()["args"]["elements"]
+        .as_u64()
+        .unwrap();
+    let centres: u64 = rayon
+        .iter()
+        .filter(|e| e["name"] == "element-centre pass")
+        .map(|e| e["args"]["items"].as_u64().unwrap())
+        .sum();
+    assert!(
+        centres > 0 && centres % elements == 0,
+        "{centres} points, {elements} elements"
+    );
 }
 
 #[test]

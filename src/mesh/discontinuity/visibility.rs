@@ -19,6 +19,7 @@ use crate::gpu::item::ItemVertex;
 use crate::gpu::visibility::{VisibilityPass, VisibilityTile};
 use crate::gpu::{Device, StageTimes};
 use crate::scene::Scene;
+use crate::trace::{self, TracedMap};
 
 /// Blockers per (emitter patch, emitter vertex, target patch): `None` when
 /// the target is not lit from that vertex at all.
@@ -261,8 +262,16 @@ impl<'a> Tiler<'a> {
         let (mut keys, mut tiles, mut indices) = (Vec::new(), Vec::new(), Vec::new());
         for chunk in pairs.chunks(QUERY_CHUNK) {
             let start = Instant::now();
-            let found: Vec<Option<Vec<u32>>> =
-                chunk.par_iter().map(|p| self.candidates(p)).collect();
+            let spans = trace::par_spans(
+                device.trace.as_deref(),
+                "shaft culling",
+                || serde_json::json!({ "pairs": chunk.len() }),
+            );
+            let found: Vec<Option<Vec<u32>>> = chunk
+                .par_iter()
+                .traced(&spans, |p| self.candidates(p))
+                .collect();
+            drop(spans);
             for (pair, found) in chunk.iter().zip(found) {
                 let (_, _, t) = pair.key;
                 if found.as_ref().is_some_and(Vec::is_empty) {

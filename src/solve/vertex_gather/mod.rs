@@ -44,6 +44,7 @@ use crate::geom::tangent_frame;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
+use crate::trace::{self, Trace, TracedMap};
 
 /// How the final gather trades rays and nodes for accuracy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -206,6 +207,8 @@ pub struct Meter<'a> {
     pub total: usize,
     /// `None`: count, never stop.
     tick: Option<&'a mut dyn FnMut(usize, usize) -> bool>,
+    /// The run's trace: each chunk's work per rayon worker becomes a span.
+    pub trace: Option<&'a Trace>,
 }
 
 impl<'a> Meter<'a> {
@@ -214,6 +217,7 @@ impl<'a> Meter<'a> {
             done: 0,
             total,
             tick: Some(tick),
+            trace: None,
         }
     }
 
@@ -223,6 +227,7 @@ impl<'a> Meter<'a> {
             done: 0,
             total: 0,
             tick: None,
+            trace: None,
         }
     }
 
@@ -543,8 +548,11 @@ impl Gather<'_> {
         meter: &mut Meter,
     ) -> Option<Vec<(Vec3, Gathered)>> {
         let mut out = Vec::with_capacity(frames.len());
+        // The Jacobi passes at the element centres, or the points asked for.
+        let name = ["gather points", "element-centre pass"][usize::from(rho.is_some())];
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
-            out.par_extend(chunk.par_iter().enumerate().map(|(i, frame)| {
+            let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
+            out.par_extend(chunk.par_iter().enumerate().traced(&spans, |(i, frame)| {
                 let k = c * CHUNK + i;
                 let rho = match rho {
                     Some(rho) => rho[k],
