@@ -194,6 +194,20 @@ impl FlatBvh {
         true
     }
 
+    /// [`FlatBvh::visible`] by testing every triangle, no hierarchy: the
+    /// reference that tells a tree's culling from the triangle test.
+    pub fn visible_brute_force(&self, a: Vec3, b: Vec3, skip: [u32; 2]) -> bool {
+        let d = b - a;
+        let len = d.length();
+        if len.is_nan() || len <= 2.0 * self.eps {
+            return true;
+        }
+        let tmin = self.eps / len;
+        !self.triangles.iter().any(|t| {
+            t.patch != skip[0] && t.patch != skip[1] && hits(&t.tri(), a, d, tmin, 1.0 - tmin)
+        })
+    }
+
     /// Checks the structure: every triangle in exactly one leaf, every
     /// triangle inside its leaf's box, every child's box inside its
     /// parent's, child indices in range and depth first, depth at most
@@ -222,9 +236,9 @@ impl FlatBvh {
                 if end > self.triangles.len() {
                     return Err(format!("leaf {i} holds triangles past the end"));
                 }
-                for t in first..end {
+                for (t, tri) in self.triangles.iter().enumerate().take(end).skip(first) {
                     seen[t] += 1;
-                    let c = self.triangles[t].corners();
+                    let c = tri.corners();
                     let lo = c[0].min(c[1]).min(c[2]).to_array();
                     let hi = c[0].max(c[1]).max(c[2]).to_array();
                     if !inside((lo, hi), n) {
@@ -329,7 +343,7 @@ impl Builder<'_> {
         } else {
             2
         };
-        if !(ext[axis] > 0.0) {
+        if ext[axis].is_nan() || ext[axis] <= 0.0 {
             // Every centre at one point: split in the middle of the list
             // (only when the leaf would be too big).
             return (items.len() > 2 * LEAF_SIZE).then_some(items.len() / 2);
