@@ -8,13 +8,13 @@ use crate::mesh::{Element, Mesh};
 
 /// PCG32 (XSH RR), O'Neill 2014.
 #[derive(Debug, Clone)]
-pub(crate) struct Pcg32 {
+pub struct Pcg32 {
     state: u64,
     inc: u64,
 }
 
 impl Pcg32 {
-    pub(crate) fn new(seed: u64, stream: u64) -> Self {
+    pub fn new(seed: u64, stream: u64) -> Self {
         let mut r = Pcg32 {
             state: 0,
             inc: (stream << 1) | 1,
@@ -25,7 +25,7 @@ impl Pcg32 {
         r
     }
 
-    pub(crate) fn next_u32(&mut self) -> u32 {
+    pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
         self.state = old
             .wrapping_mul(6_364_136_223_846_793_005)
@@ -36,7 +36,7 @@ impl Pcg32 {
     }
 
     /// Uniform in [0, 1).
-    pub(crate) fn next_f32(&mut self) -> f32 {
+    pub fn next_f32(&mut self) -> f32 {
         (self.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 }

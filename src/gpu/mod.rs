@@ -10,6 +10,7 @@ pub mod memory;
 pub mod pipeline;
 pub mod profiler;
 pub mod raster;
+pub mod rays;
 pub mod shaders;
 pub mod shooting;
 pub mod visibility;

@@ -19,6 +19,7 @@ mod formfactor_exact;
 mod formfactor_hemicube;
 mod fuzz_loader;
 mod golden;
+mod gpu_rays;
 mod hierarchy;
 mod layout;
 mod seams;

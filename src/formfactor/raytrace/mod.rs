@@ -85,6 +85,7 @@ use super::sampling::{grid, Pcg32, Sampler, Shooter};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
+pub mod flat_bvh;
 mod occluders;
 mod source;
 #[cfg(test)]

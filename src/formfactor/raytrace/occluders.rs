@@ -22,6 +22,35 @@ pub(crate) struct Tri {
     pub(crate) patch: u32,
 }
 
+/// Every patch of `scene` fan-triangulated from its corner 0, in patch
+/// order (the occluders of [`Occluders`] and of `flat_bvh::FlatBvh`).
+pub(crate) fn fan_triangles(scene: &Scene) -> Vec<Tri> {
+    let mut tris = Vec::new();
+    for (p, patch) in scene.patches.iter().enumerate() {
+        let v = &patch.vertices;
+        for k in 1..v.len().saturating_sub(1) {
+            tris.push(Tri {
+                v0: v[0],
+                e1: v[k] - v[0],
+                e2: v[k + 1] - v[0],
+                patch: p as u32,
+            });
+        }
+    }
+    tris
+}
+
+/// The distance from either end of a segment within which hits are
+/// ignored: `1e-5` of the scene's extent.
+pub(crate) fn scene_epsilon(scene: &Scene) -> f32 {
+    let extent = scene.extent();
+    if extent.is_finite() && extent > 0.0 {
+        1e-5 * extent
+    } else {
+        1e-6
+    }
+}
+
 /// The scene's patches as occluders, in a compressed wide BVH (`obvhs`
 /// CWBVH8, PLOC build, any-hit traversal).
 #[derive(Debug, Clone)]
@@ -37,24 +66,8 @@ pub struct Occluders {
 impl Occluders {
     /// Builds the hierarchy over every patch of `scene` (fan triangulated).
     pub fn new(scene: &Scene) -> Self {
-        let mut tris = Vec::new();
-        for (p, patch) in scene.patches.iter().enumerate() {
-            let v = &patch.vertices;
-            for k in 1..v.len().saturating_sub(1) {
-                tris.push(Tri {
-                    v0: v[0],
-                    e1: v[k] - v[0],
-                    e2: v[k + 1] - v[0],
-                    patch: p as u32,
-                });
-            }
-        }
-        let extent = scene.extent();
-        let eps = if extent.is_finite() && extent > 0.0 {
-            1e-5 * extent
-        } else {
-            1e-6
-        };
+        let tris = fan_triangles(scene);
+        let eps = scene_epsilon(scene);
         if tris.is_empty() {
             return Occluders {
                 bvh: None,

@@ -1,0 +1,127 @@
+// Any-hit segment queries against a binary BVH in storage buffers
+// (mirrors src/gpu/rays/mod.rs::{BvhNode, BvhTriangle}, built by
+// src/formfactor/raytrace/flat_bvh.rs). The rules are those of
+// Occluders::visible: every triangle blocks from both sides, Moller-Trumbore
+// with inclusive edges, t strictly inside (tmin, 1 - tmin) with
+// tmin = eps / length, triangles of the two skipped patches ignored.
+// The includer declares nothing at bindings 0 and 1.
+
+struct BvhNode {
+    // count == 0: interior, left child = this + 1, right child = index;
+    // count > 0: leaf holding triangles index .. index + count.
+    vec3 lo;
+    uint index;
+    vec3 hi;
+    uint count;
+};
+
+struct BvhTriangle {
+    vec3 v0;
+    uint patch_id;
+    vec3 e1;
+    uint pad0;
+    vec3 e2;
+    uint pad1;
+};
+
+layout(set = 0, binding = 0, std430) readonly buffer BvhNodes { BvhNode bvh_nodes[]; };
+layout(set = 0, binding = 1, std430) readonly buffer BvhTriangles { BvhTriangle bvh_tris[]; };
+
+// The shader's traversal stack; flat_bvh.rs keeps the depth under it.
+#define BVH_STACK 64
+
+// Entry distance of a + t d (inv = 1 / d) into the box over [tmin, tmax],
+// or -1 when it misses.
+float bvh_slab(uint node, vec3 a, vec3 inv, float tmin, float tmax) {
+    vec3 t0 = (bvh_nodes[node].lo - a) * inv;
+    vec3 t1 = (bvh_nodes[node].hi - a) * inv;
+    vec3 lo = min(t0, t1);
+    vec3 hi = max(t0, t1);
+    float near = max(max(lo.x, lo.y), max(lo.z, tmin));
+    float far = min(min(hi.x, hi.y), min(hi.z, tmax));
+    return near <= far ? near : -1.0;
+}
+
+// `precise`: no fused multiply-adds, so that the test rounds as the CPU's
+// (occluders.rs::hit_distance) does and grazing hits fall the same way.
+bool bvh_hits(uint k, vec3 a, vec3 d, float tmin, float tmax) {
+    vec3 e1 = bvh_tris[k].e1;
+    vec3 e2 = bvh_tris[k].e2;
+    precise vec3 p = cross(d, e2);
+    precise float det = dot(e1, p);
+    if (det == 0.0 || isinf(det) || isnan(det)) {
+        return false;
+    }
+    precise float inv = 1.0 / det;
+    precise vec3 s = a - bvh_tris[k].v0;
+    precise float u = dot(s, p) * inv;
+    if (!(u >= 0.0 && u <= 1.0)) {
+        return false;
+    }
+    precise vec3 q = cross(s, e1);
+    precise float v = dot(d, q) * inv;
+    if (v < 0.0 || u + v > 1.0) {
+        return false;
+    }
+    precise float t = dot(e2, q) * inv;
+    return t > tmin && t < tmax;
+}
+
+float bvh_safe(float x) {
+    return abs(x) < 1e-30 ? (x < 0.0 ? -1e-30 : 1e-30) : x;
+}
+
+// Whether the segment from a to b is unblocked (node_count 0: no scene).
+bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
+    vec3 d = b - a;
+    float len = length(d);
+    if (node_count == 0u || isnan(len) || len <= 2.0 * eps) {
+        return true;
+    }
+    float tmin = eps / len;
+    float tmax = 1.0 - tmin;
+    vec3 inv = 1.0 / vec3(bvh_safe(d.x), bvh_safe(d.y), bvh_safe(d.z));
+    if (bvh_slab(0u, a, inv, tmin, tmax) < 0.0) {
+        return true;
+    }
+    uint stack[BVH_STACK];
+    int sp = 0;
+    uint node = 0u;
+    while (true) {
+        uint count = bvh_nodes[node].count;
+        uint index = bvh_nodes[node].index;
+        if (count > 0u) {
+            for (uint k = index; k < index + count; k++) {
+                uint patch_id = bvh_tris[k].patch_id;
+                if (patch_id != skip.x && patch_id != skip.y && bvh_hits(k, a, d, tmin, tmax)) {
+                    return false;
+                }
+            }
+        } else {
+            uint l = node + 1u;
+            uint r = index;
+            float tl = bvh_slab(l, a, inv, tmin, tmax);
+            float tr = bvh_slab(r, a, inv, tmin, tmax);
+            if (tl >= 0.0 && tr >= 0.0) {
+                // Nearer first; the other waits on the stack.
+                bool left_first = tl <= tr;
+                stack[sp++] = left_first ? r : l;
+                node = left_first ? l : r;
+                continue;
+            }
+            if (tl >= 0.0) {
+                node = l;
+                continue;
+            }
+            if (tr >= 0.0) {
+                node = r;
+                continue;
+            }
+        }
+        if (sp == 0) {
+            return true;
+        }
+        node = stack[--sp];
+    }
+    return true;
+}
