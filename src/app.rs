@@ -189,6 +189,9 @@ pub struct Report {
     /// Display points that took the light reflected onto them from the
     /// element centres, and points that gathered it (`--reflected-reuse`).
     pub reflected_reuse: (usize, usize),
+    /// Whether the GPU gathered the emitters' direct light
+    /// (`--direct-light`).
+    pub direct_on_gpu: bool,
 }
 
 const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
@@ -282,6 +285,7 @@ impl Report {
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,
             "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
+            "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
             "outputs": {
                 "image": self.output.display().to_string(),
                 "mesh": self.export.as_ref().map(|p| p.display().to_string()),
@@ -538,6 +542,7 @@ pub fn run_scene(
         ..g
     });
     let mut reflected_reuse = (0, 0);
+    let mut direct_on_gpu = false;
     let shown = match &final_gather {
         Some(settings) if interrupted.is_none() => {
             // Gathered from the elements as shown: the ambient term joins
@@ -563,7 +568,15 @@ pub fn run_scene(
             let shaded = if !started {
                 Shaded::Nothing
             } else {
-                match FinalGather::metered(&scene, &mesh, &tree, &sources, settings, &mut meter) {
+                match FinalGather::metered(
+                    &scene,
+                    &mesh,
+                    &tree,
+                    &sources,
+                    settings,
+                    Some(&device),
+                    &mut meter,
+                ) {
                     None => Shaded::Nothing,
                     Some(gather) => {
                         let shaded = match display.as_mut() {
@@ -584,6 +597,8 @@ pub fn run_scene(
                             },
                         };
                         reflected_reuse = gather.reflected_reuse();
+                        direct_on_gpu = gather.direct_on_gpu();
+                        warnings.extend(gather.gpu_warning());
                         shaded
                     }
                 }
@@ -674,5 +689,6 @@ pub fn run_scene(
         interrupted,
         gather_passes: final_gather.map(|g| g.source_passes),
         reflected_reuse,
+        direct_on_gpu,
     })
 }

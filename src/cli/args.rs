@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
-use vkrad::solve::vertex_gather::VertexGather;
+use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
 
 use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::DeviceOptions;
@@ -93,6 +93,23 @@ pub(crate) struct MeshArgs {
 pub(crate) enum MesherArg {
     Uniform,
     Discontinuity,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum DirectLightArg {
+    Auto,
+    Cpu,
+    Gpu,
+}
+
+impl DirectLightArg {
+    pub(crate) fn direct_light(self) -> DirectLight {
+        match self {
+            DirectLightArg::Auto => DirectLight::Auto,
+            DirectLightArg::Cpu => DirectLight::Cpu,
+            DirectLightArg::Gpu => DirectLight::Gpu,
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -260,6 +277,12 @@ pub(crate) struct RenderArgs {
     /// all of its light.
     #[arg(long, default_value_t = VertexGather::default().reuse, value_name = "ERROR")]
     pub(crate) reflected_reuse: f32,
+    /// Where the final gather traces the emitters' direct light: on the
+    /// GPU (a compute pass over a BVH in storage buffers) or on the CPU
+    /// beside the reflected light. auto: the GPU unless the device is
+    /// the CPU itself (lavapipe, where the pass is 3-6x slower).
+    #[arg(long, value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
+    pub(crate) direct_light: DirectLightArg,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
     /// the default --max-edge; at most --max-edge).

@@ -73,6 +73,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     job.final_gather = (!args.no_final_gather).then(|| VertexGather {
         source_passes: args.gather_passes,
         reuse: args.reflected_reuse,
+        direct_light: args.direct_light.direct_light(),
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

@@ -392,3 +392,71 @@ fn gpu_source_gather_refuses_bad_sources() {
     assert!(pass.gather(&[point], &[bad], 0).is_err());
     assert_eq!(pass.gather(&[point], &[], 0).unwrap(), vec![[0.0; 3]]);
 }
+
+/// The final gather with the emitters' direct light on the GPU against the
+/// same gather all on the CPU, at points in and out of the Cornell box's
+/// shadows: the two estimate the same integral with different rays (and
+/// the GPU takes the light whole where the CPU opens it near the point).
+#[test]
+fn the_final_gather_agrees_with_its_direct_light_on_the_gpu() {
+    use vkrad::solve::vertex_gather::{DirectLight, FinalGather, Meter, VertexGather};
+    use vkrad::solve::ShooterTree;
+    let device = common::device();
+    let scene = vkrad::scene::load_builtin("cornell").unwrap().unwrap();
+    let mesh = vkrad::mesh::uniform(&scene, vkrad::mesh::default_max_edge(&scene));
+    let tree = ShooterTree::new(&scene, &mesh);
+    let b: Vec<[f32; 3]> = mesh
+        .elements
+        .iter()
+        .map(|e| match scene.patch_material(e.patch).is_emitter() {
+            true => [20.0; 3],
+            false => [1.0; 3],
+        })
+        .collect();
+    let gather = |direct_light| {
+        let settings = VertexGather {
+            source_passes: 1,
+            direct_light,
+            ..VertexGather::default()
+        };
+        FinalGather::metered(
+            &scene,
+            &mesh,
+            &tree,
+            &b,
+            &settings,
+            Some(&device),
+            &mut Meter::unwatched(),
+        )
+        .unwrap()
+    };
+    let (gpu, cpu) = (gather(DirectLight::Gpu), gather(DirectLight::Cpu));
+    assert!(gpu.direct_on_gpu() && !cpu.direct_on_gpu());
+    assert_eq!(gpu.gpu_warning(), None);
+    let frames: Vec<(Vec3, Vec3, u32)> = mesh
+        .elements
+        .iter()
+        .step_by(2)
+        .map(|e| (e.centre, e.normal, e.patch))
+        .collect();
+    let (on_gpu, on_cpu) = (gpu.at_points(&frames), cpu.at_points(&frames));
+    let (mut d2, mut r2, mut sum_gpu, mut sum_cpu) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (g, c) in on_gpu.iter().zip(&on_cpu) {
+        d2 += ((g[0] - c[0]) as f64).powi(2);
+        r2 += (c[0] as f64).powi(2);
+        sum_gpu += g[0] as f64;
+        sum_cpu += c[0] as f64;
+    }
+    let (rms, bias) = ((d2 / r2).sqrt(), sum_gpu / sum_cpu - 1.0);
+    eprintln!(
+        "direct light on the GPU against the CPU at {} points: rel. RMS {:.3}%, bias {:+.3}%",
+        frames.len(),
+        100.0 * rms,
+        100.0 * bias
+    );
+    assert!(
+        rms < 0.02 && bias.abs() < 0.003,
+        "rel. RMS {rms}, bias {bias}"
+    );
+    common::assert_validation_clean(&device);
+}

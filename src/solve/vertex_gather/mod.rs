@@ -23,28 +23,27 @@
 //! image must resolve), reflecting ones a few, in proportion to their form
 //! factor.
 
-use std::f32::consts::PI;
-
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 use glam::{DVec3, Vec3};
-use rayon::prelude::*;
 
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
-use self::receiver::{fan_of, Receiver};
-use self::reflected_cache::{HarmonicDistance, Record, ReflectedCache};
+use self::gpu_direct::GpuDirect;
+use self::point_gather::Gather;
+use self::receiver::fan_of;
+use self::reflected_cache::{Record, ReflectedCache};
 use super::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::receivers::vertex_frames;
-use crate::formfactor::sampling::Pcg32;
-use crate::geom::tangent_frame;
+use crate::gpu::Device;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-use crate::trace::{self, Trace, TracedMap};
+use crate::trace::Trace;
 
 /// How the final gather trades rays and nodes for accuracy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,6 +70,19 @@ pub struct VertexGather {
     /// from the element centres of the last pass ([`reflected_cache`]);
     /// 0: every point gathers all of its light.
     pub reuse: f32,
+    /// Where the emitters' direct light is gathered ([`gpu_direct`]).
+    pub direct_light: DirectLight,
+}
+
+/// Where the final gather's direct light is gathered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectLight {
+    /// On the GPU when the device is one, on the CPU when the device is
+    /// the CPU itself (lavapipe: there the GPU pass is 3-6x slower than
+    /// the CPU's own rays, `cargo bench --bench gpu_rays`).
+    Auto,
+    Cpu,
+    Gpu,
 }
 
 impl VertexGather {
@@ -91,6 +103,7 @@ impl Default for VertexGather {
             source_passes: 8,
             link_error: LINK_ERROR,
             reuse: REUSE,
+            direct_light: DirectLight::Auto,
         }
     }
 }
@@ -251,6 +264,8 @@ const CHUNK: usize = 1024;
 /// corrected by the Jacobi passes.
 pub struct FinalGather<'a> {
     gather: Gather<'a>,
+    /// Why the GPU did not gather the direct light though asked to.
+    gpu_refused: Option<String>,
 }
 
 impl<'a> FinalGather<'a> {
@@ -272,19 +287,23 @@ impl<'a> FinalGather<'a> {
             tree,
             radiosity,
             settings,
+            None,
             &mut Meter::unwatched(),
         )
         .expect("an unwatched meter never stops")
     }
 
     /// [`FinalGather::new`], counting the passes' points on `meter`;
-    /// `None` when it stops them.
+    /// `None` when it stops them. With `device`, the emitters' direct
+    /// light is gathered there as [`VertexGather::direct_light`] says.
+    /// Without, on the CPU.
     pub fn metered(
         scene: &'a Scene,
         solved: &Mesh,
         tree: &'a ShooterTree,
         radiosity: &[[f32; 3]],
         settings: &VertexGather,
+        device: Option<&Arc<Device>>,
         meter: &mut Meter,
     ) -> Option<Self> {
         assert_eq!(radiosity.len(), solved.elements.len());
@@ -316,7 +335,25 @@ impl<'a> FinalGather<'a> {
             element_rho: solved.element_reflectance(scene),
             reflected_cache: None,
             reused: [AtomicUsize::new(0), AtomicUsize::new(0)],
+            gpu_direct: None,
         };
+        let mut gpu_refused = None;
+        let on_gpu = |device: &Device| match settings.direct_light {
+            DirectLight::Auto => !device.is_cpu(),
+            DirectLight::Cpu => false,
+            DirectLight::Gpu => true,
+        };
+        if let Some(device) = device.filter(|d| on_gpu(d)) {
+            match GpuDirect::new(device, scene) {
+                Ok(gpu) => gather.gpu_direct = Some(gpu),
+                Err(e) => {
+                    gpu_refused = Some(format!(
+                        "the GPU cannot gather the direct light ({e}); the CPU did"
+                    ))
+                }
+            }
+        }
+        gather.emitters_to_gpu(&roots, &mut gpu_refused);
         // Each pass at the elements (the centre of their exposed part) is a
         // Jacobi step with exact form factors: it corrects the solve's
         // element values (biased where its form factors are, on coarse
@@ -336,6 +373,7 @@ impl<'a> FinalGather<'a> {
             }
             gather.sources = sources(scene, solved, tree, &corrected, &exposed);
             gather.clusters.relight(&gather.sources);
+            gather.emitters_to_gpu(&roots, &mut gpu_refused);
         }
         // The reflected light at the centres, from the final sources (the
         // display points gather their direct light from these too).
@@ -357,7 +395,10 @@ impl<'a> FinalGather<'a> {
                 .collect();
             gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
         }
-        Some(FinalGather { gather })
+        Some(FinalGather {
+            gather,
+            gpu_refused,
+        })
     }
 
     /// Radiosity at every vertex of `display` (any mesh of the same scene;
@@ -430,6 +471,22 @@ impl<'a> FinalGather<'a> {
             .expect("an unwatched meter never stops")
     }
 
+    /// Why the direct light was gathered on the CPU though the GPU was
+    /// asked to (or stopped doing it part of the way).
+    pub fn gpu_warning(&self) -> Option<String> {
+        let failed = self
+            .gather
+            .gpu_direct
+            .as_ref()
+            .and_then(|g| g.failure.lock().unwrap_or_else(|e| e.into_inner()).clone());
+        self.gpu_refused.clone().or(failed)
+    }
+
+    /// Whether the GPU gathers the emitters' direct light.
+    pub fn direct_on_gpu(&self) -> bool {
+        self.gather.gpu_direct.is_some()
+    }
+
     /// How many points so far took their reflected light from the
     /// element centres' cache, and how many gathered it themselves (both
     /// 0 without a cache).
@@ -453,319 +510,6 @@ impl<'a> FinalGather<'a> {
 
 /// Where a value is gathered: point, normal, patch (`u32::MAX`: none).
 type Frame = (Vec3, Vec3, u32);
-
-/// What both passes share.
-struct Gather<'a> {
-    scene: &'a Scene,
-    tree: &'a ShooterTree,
-    sources: Vec<Source>,
-    occluders: Occluders,
-    clusters: Clusters,
-    settings: VertexGather,
-    /// Mean reflectance per patch and per solved element (textures
-    /// averaged over each): a point's value is its patch's, an element's
-    /// its own.
-    patch_rho: Vec<Vec3>,
-    element_rho: Vec<Vec3>,
-    /// The last pass's reflected light at the element centres, for the
-    /// display points (`None` during the passes).
-    reflected_cache: Option<ReflectedCache>,
-    /// Points since the cache was built that took their reflected light
-    /// from it, and that gathered it.
-    reused: [AtomicUsize; 2],
-}
-
-/// Which sources a point gathers from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Sources {
-    All,
-    /// Only the emitting ones (the rest comes from the reflected cache).
-    Emitting,
-    /// All, measuring [`Gathered::clearance`] too (the cache's records).
-    Recording,
-}
-
-/// A point's gathered light, split by the kind of source.
-#[derive(Debug, Clone, Copy)]
-struct Gathered {
-    /// Sum of B F V over emitting sources.
-    direct: Vec3,
-    /// ... and over the others.
-    reflected: Vec3,
-    /// How far the reflecting sources are.
-    distance: HarmonicDistance,
-    /// The distance to the nearest surface met (measured only when
-    /// recording).
-    clearance: f32,
-}
-
-impl Default for Gathered {
-    fn default() -> Self {
-        Gathered {
-            direct: Vec3::ZERO,
-            reflected: Vec3::ZERO,
-            distance: HarmonicDistance::default(),
-            clearance: f32::INFINITY,
-        }
-    }
-}
-
-impl Gathered {
-    fn total(&self) -> Vec3 {
-        self.direct + self.reflected
-    }
-
-    /// How far from its point this light may be reused: the reflecting
-    /// sources' harmonic mean distance (Ward 1988), or the nearest
-    /// surface when that is nearer (an occluder that sends no light to
-    /// the point still changes the light around it).
-    fn reach(&self) -> f32 {
-        self.distance.mean().min(self.clearance.max(0.0))
-    }
-}
-
-impl Gather<'_> {
-    /// Radiosity at every frame, in chunks counted on `meter`; `None` when
-    /// it stops them. `rho`: the reflectance of each frame (`None`: its
-    /// patch's mean).
-    fn at_points(
-        &self,
-        frames: &[Frame],
-        rho: Option<&[Vec3]>,
-        meter: &mut Meter,
-    ) -> Option<Vec<[f32; 3]>> {
-        let gathered = self.gather_points(frames, rho, false, meter)?;
-        Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
-    }
-
-    /// [`Self::at_points`] with each point's gathered light by kind;
-    /// `recording`: measure how far each one's light holds.
-    fn gather_points(
-        &self,
-        frames: &[Frame],
-        rho: Option<&[Vec3]>,
-        recording: bool,
-        meter: &mut Meter,
-    ) -> Option<Vec<(Vec3, Gathered)>> {
-        let mut out = Vec::with_capacity(frames.len());
-        // The Jacobi passes at the element centres, or the points asked for.
-        let name = ["gather points", "element-centre pass"][usize::from(rho.is_some())];
-        for (c, chunk) in frames.chunks(CHUNK).enumerate() {
-            let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
-            out.par_extend(chunk.par_iter().enumerate().traced(&spans, |(i, frame)| {
-                let k = c * CHUNK + i;
-                let rho = match rho {
-                    Some(rho) => rho[k],
-                    None => self
-                        .patch_rho
-                        .get(frame.2 as usize)
-                        .copied()
-                        .unwrap_or_default(),
-                };
-                self.at_frame(k, frame, rho, recording)
-            }));
-            if !meter.advance(chunk.len()) {
-                return None;
-            }
-        }
-        Some(out)
-    }
-
-    /// Radiosity at frame number `k` (which seeds its rays), of
-    /// reflectance `rho`, and the light gathered there. Its reflected
-    /// light comes from the cache where a record is valid.
-    fn at_frame(
-        &self,
-        k: usize,
-        &(p, n, patch): &Frame,
-        rho: Vec3,
-        recording: bool,
-    ) -> (Vec3, Gathered) {
-        let Some(surface) = self.scene.patches.get(patch as usize) else {
-            return (Vec3::ZERO, Gathered::default());
-        };
-        let material = self.scene.material_of(surface);
-        let mut gathered = Gathered::default();
-        if rho.max_element() > 0.0 {
-            let at = Receiver { p, n, patch };
-            let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
-            let cached = self
-                .reflected_cache
-                .as_ref()
-                .and_then(|cache| cache.lookup(p, n, patch));
-            if self.reflected_cache.is_some() {
-                self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
-            }
-            gathered = match cached {
-                Some(reflected) => Gathered {
-                    reflected,
-                    ..self.at_point(&at, true, Sources::Emitting, &mut rng)
-                },
-                None if recording => self.at_point(&at, true, Sources::Recording, &mut rng),
-                None => self.at_point(&at, true, Sources::All, &mut rng),
-            };
-        }
-        (material.emission * PI + rho * gathered.total(), gathered)
-    }
-
-    /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
-    /// a leaf that fills much of the view takes the radiosity at its
-    /// point beside the receiver instead of its mean ([`Self::beside`]).
-    fn at_point(
-        &self,
-        at: &Receiver,
-        look_closer: bool,
-        wanted: Sources,
-        rng: &mut Pcg32,
-    ) -> Gathered {
-        let settings = &self.settings;
-        let mut gathered = Gathered::default();
-        // Clusters of patches first: far, even ones whole, the rest down
-        // to their patches' root nodes.
-        let mut stack: Vec<u32> = Vec::new();
-        let mut clusters: Vec<u32> = if self.clusters.nodes.is_empty() {
-            Vec::new()
-        } else {
-            vec![0]
-        };
-        while let Some(c) = clusters.pop() {
-            let cluster = &self.clusters.nodes[c as usize];
-            if cluster.unseen(at.p, at.n) || (wanted == Sources::Emitting && !cluster.emits) {
-                continue;
-            }
-            let tolerance = settings.link_error * self.clusters.level;
-            if cluster.takes_whole(at.p, at.n, settings.uniformity, tolerance) {
-                if wanted == Sources::Recording {
-                    let clearance = at.p.distance(cluster.centre) - cluster.radius;
-                    gathered.clearance = gathered.clearance.min(clearance);
-                }
-                gathered.reflected += cluster.gather(
-                    (at.p, at.n, at.patch),
-                    &self.sources,
-                    &self.occluders,
-                    (wanted == Sources::Recording).then_some(&mut gathered.distance),
-                );
-                continue;
-            }
-            match cluster.children {
-                Some(children) => clusters.extend_from_slice(&children),
-                None => stack.extend_from_slice(&cluster.roots),
-            }
-        }
-        while let Some(n) = stack.pop() {
-            let node = &self.tree.nodes[n as usize];
-            if node.patch == at.patch {
-                continue;
-            }
-            let src = &self.sources[n as usize];
-            if wanted == Sources::Emitting && !src.emits {
-                continue;
-            }
-            let even = is_even(src.lo, src.hi, settings.uniformity);
-            let distance = at.p.distance(node.centre);
-            let near = node.radius > NEAR_RADIUS * distance;
-            // A dark node adds nothing, unless it is close by and covered:
-            // its dark mean may hide a lit sliver (elements under a box but
-            // for a strip along its foot) that `beside` finds in its leaves.
-            let look_beside = look_closer && near && src.covered;
-            let dark = !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside;
-            let faces = at.faces(node.centre, node.normal, &node.polygon);
-            let far = node.radius <= settings.opening * distance;
-            let take_whole = node.children.is_empty() || (far && even);
-            // The distance to its nearest point, when recording.
-            let mut nearest = f32::INFINITY;
-            if wanted == Sources::Recording && (dark || !faces || take_whole) {
-                // Every surface near the point bounds how far its light
-                // holds, whether it sends light, shows its back (a light
-                // hung just under a ceiling) or is dark.
-                let q = nearest_in_polygon(
-                    &node.polygon,
-                    node.normal,
-                    at.p - (at.p - node.centre).dot(node.normal) * node.normal,
-                );
-                nearest = at.p.distance(q);
-                gathered.clearance = gathered.clearance.min(nearest);
-            }
-            if dark || !faces {
-                continue;
-            }
-            if !take_whole {
-                stack.extend_from_slice(&node.children);
-                continue;
-            }
-            let ff = at.form_factor(src, near, &self.occluders, settings, rng);
-            let mut radiosity = src.radiosity;
-            if look_beside && node.children.is_empty() && !src.emits && ff > CLOSE_FF.0 {
-                if let Some(b) = self.beside(at, n, rng) {
-                    let w = ((ff - CLOSE_FF.0) / (CLOSE_FF.1 - CLOSE_FF.0)).min(1.0);
-                    radiosity = radiosity.lerp(b, w);
-                }
-            }
-            if src.emits {
-                gathered.direct += radiosity * ff;
-            } else {
-                gathered.reflected += radiosity * ff;
-                if wanted == Sources::Recording {
-                    gathered.distance.add(ff, nearest);
-                }
-            }
-        }
-        gathered
-    }
-
-    /// The radiosity of leaf `n` where a receiver close to it looks: at
-    /// the foot of the receiver on the leaf's plane, moved as far again
-    /// along the receiver's facing direction. A receiver at height h
-    /// over a surface takes most of that surface's form factor from
-    /// within a few h, so a leaf straddling a shadow or a contact (a
-    /// solved floor element under the corner of a box) would otherwise
-    /// lend its mean to a receiver that sees only its lit side: the foot
-    /// of a lit box face read 75% dark on Cornell. `None` where that
-    /// point is enclosed.
-    fn beside(&self, at: &Receiver, n: u32, rng: &mut Pcg32) -> Option<Vec3> {
-        let node = &self.tree.nodes[n as usize];
-        let height = (at.p - node.centre).dot(node.normal);
-        if height <= 0.0 {
-            return None;
-        }
-        let foot = at.p - height * node.normal;
-        let along = (at.n - at.n.dot(node.normal) * node.normal).normalize_or_zero();
-        // Where the receiver looks may lie just across the leaf's edge (a
-        // solved element's edge along the foot of a box): then the leaf's
-        // point nearest to it, a hair inside.
-        // At least a hundredth of the leaf's radius out, clear of the
-        // ray tracer's epsilon and of the receiver's own surface.
-        let out = foot + height.max(0.01 * node.radius) * along;
-        let mut q = nearest_in_polygon(&node.polygon, node.normal, out);
-        if q != out {
-            q += 1e-3 * (node.centre - q);
-        }
-        let occluders = &self.occluders;
-        if exposure::encloses(
-            self.scene,
-            occluders,
-            q,
-            node.normal,
-            tangent_frame(node.normal),
-            rng,
-        ) {
-            return None;
-        }
-        let surface = &self.scene.patches[node.patch as usize];
-        let material = self.scene.material_of(surface);
-        let rho = match node.element {
-            Some(e) => self.element_rho[e as usize],
-            None => self.patch_rho[node.patch as usize],
-        };
-        let there = Receiver {
-            p: q,
-            n: node.normal,
-            patch: node.patch,
-        };
-        let gathered = self.at_point(&there, false, Sources::All, rng);
-        Some(material.emission * PI + rho * gathered.total())
-    }
-}
 
 /// Whether light whose levels range over `lo..=hi` is even: the brightest
 /// within `uniformity` of the dimmest (or all dark).
@@ -834,6 +578,8 @@ fn sources(
 mod clusters;
 pub mod display;
 mod exposure;
+mod gpu_direct;
+mod point_gather;
 mod receiver;
 pub mod refine;
 mod reflected_cache;

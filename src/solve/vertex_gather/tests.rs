@@ -1,6 +1,9 @@
 //! Tests of the final gather: exact cases, light leaks, exposure.
+use std::f32::consts::PI;
+
 use super::*;
 use crate::formfactor::analytic::point_to_polygon;
+use crate::formfactor::sampling::Pcg32;
 use crate::mesh::testutil::scene;
 use crate::mesh::uniform;
 use crate::scene::Material;

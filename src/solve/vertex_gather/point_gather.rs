@@ -1,0 +1,388 @@
+//! The gather at one point: the clusters and the shooting hierarchy walked
+//! from the point, each source taken whole or opened (see the module
+//! above), its exact form factor times its visible share; the light split
+//! by kind (direct from emitters, reflected from the rest) so that the
+//! reflected cache and the GPU can each take their share.
+
+use std::f32::consts::PI;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::clusters::Clusters;
+use super::exposure;
+use super::gpu_direct::GpuDirect;
+use super::receiver::Receiver;
+use super::reflected_cache::{HarmonicDistance, ReflectedCache};
+use super::{
+    is_even, nearest_in_polygon, Frame, Meter, Source, VertexGather, CHUNK, CLOSE_FF, NEAR_RADIUS,
+};
+use crate::formfactor::raytrace::Occluders;
+use crate::formfactor::sampling::Pcg32;
+use crate::geom::tangent_frame;
+use crate::scene::Scene;
+use crate::solve::hierarchy::ShooterTree;
+use crate::trace::{self, TracedMap};
+
+/// What both passes share.
+pub(super) struct Gather<'a> {
+    pub(super) scene: &'a Scene,
+    pub(super) tree: &'a ShooterTree,
+    pub(super) sources: Vec<Source>,
+    pub(super) occluders: Occluders,
+    pub(super) clusters: Clusters,
+    pub(super) settings: VertexGather,
+    /// Mean reflectance per patch and per solved element (textures
+    /// averaged over each): a point's value is its patch's, an element's
+    /// its own.
+    pub(super) patch_rho: Vec<Vec3>,
+    pub(super) element_rho: Vec<Vec3>,
+    /// The last pass's reflected light at the element centres, for the
+    /// display points (`None` during the passes).
+    pub(super) reflected_cache: Option<ReflectedCache>,
+    /// Points since the cache was built that took their reflected light
+    /// from it, and that gathered it.
+    pub(super) reused: [AtomicUsize; 2],
+    /// The direct light's pass on the GPU, when asked for.
+    pub(super) gpu_direct: Option<GpuDirect>,
+}
+
+/// Which sources a point gathers from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Sources {
+    All,
+    /// Only the emitting ones (the rest comes from the reflected cache).
+    Emitting,
+    /// Only the others (the GPU gathers the direct light).
+    Reflecting,
+    /// The others, measuring [`Gathered::clearance`] too (the cache's
+    /// records, which keep only the reflected light).
+    Recording,
+}
+
+impl Sources {
+    fn direct(self) -> bool {
+        matches!(self, Sources::All | Sources::Emitting)
+    }
+
+    fn reflected(self) -> bool {
+        self != Sources::Emitting
+    }
+}
+
+/// A point's gathered light, split by the kind of source.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Gathered {
+    /// Sum of B F V over emitting sources.
+    direct: Vec3,
+    /// ... and over the others.
+    pub(super) reflected: Vec3,
+    /// How far the reflecting sources are.
+    distance: HarmonicDistance,
+    /// The distance to the nearest surface met (measured only when
+    /// recording).
+    clearance: f32,
+}
+
+impl Default for Gathered {
+    fn default() -> Self {
+        Gathered {
+            direct: Vec3::ZERO,
+            reflected: Vec3::ZERO,
+            distance: HarmonicDistance::default(),
+            clearance: f32::INFINITY,
+        }
+    }
+}
+
+impl Gathered {
+    fn total(&self) -> Vec3 {
+        self.direct + self.reflected
+    }
+
+    /// How far from its point this light may be reused: the reflecting
+    /// sources' harmonic mean distance (Ward 1988), or the nearest
+    /// surface when that is nearer (an occluder that sends no light to
+    /// the point still changes the light around it).
+    pub(super) fn reach(&self) -> f32 {
+        self.distance.mean().min(self.clearance.max(0.0))
+    }
+}
+
+impl Gather<'_> {
+    /// Gives the GPU pass (when there is one) the emitters' current light;
+    /// a light it cannot take leaves the direct light to the CPU.
+    pub(super) fn emitters_to_gpu(&mut self, roots: &[u32], refused: &mut Option<String>) {
+        if let Some(gpu) = &mut self.gpu_direct {
+            if !gpu.set_emitters(self.tree, roots, &self.sources, &self.settings) {
+                *refused = Some(format!(
+                    "a light has more than {} corners, which the GPU's direct-light pass cannot take; the CPU gathered it",
+                    crate::gpu::rays::MAX_SOURCE_CORNERS
+                ));
+                self.gpu_direct = None;
+            }
+        }
+    }
+
+    /// Radiosity at every frame, in chunks counted on `meter`; `None` when
+    /// it stops them. `rho`: the reflectance of each frame (`None`: its
+    /// patch's mean).
+    pub(super) fn at_points(
+        &self,
+        frames: &[Frame],
+        rho: Option<&[Vec3]>,
+        meter: &mut Meter,
+    ) -> Option<Vec<[f32; 3]>> {
+        let gathered = self.gather_points(frames, rho, false, meter)?;
+        Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
+    }
+
+    /// [`Self::at_points`] with each point's gathered light by kind;
+    /// `recording`: measure how far each one's light holds.
+    pub(super) fn gather_points(
+        &self,
+        frames: &[Frame],
+        rho: Option<&[Vec3]>,
+        recording: bool,
+        meter: &mut Meter,
+    ) -> Option<Vec<(Vec3, Gathered)>> {
+        let mut out = Vec::with_capacity(frames.len());
+        // The Jacobi passes at the element centres, or the points asked for.
+        let name = ["gather points", "element-centre pass"][usize::from(rho.is_some())];
+        for (c, chunk) in frames.chunks(CHUNK).enumerate() {
+            // The GPU's share first (the records need no direct light).
+            let direct = match (&self.gpu_direct, recording) {
+                (Some(gpu), false) => gpu.direct(c * CHUNK, chunk),
+                _ => None,
+            };
+            let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
+            out.par_extend(chunk.par_iter().enumerate().traced(&spans, |(i, frame)| {
+                let k = c * CHUNK + i;
+                let rho = match rho {
+                    Some(rho) => rho[k],
+                    None => self
+                        .patch_rho
+                        .get(frame.2 as usize)
+                        .copied()
+                        .unwrap_or_default(),
+                };
+                let direct = direct.as_ref().map(|d| d[i]);
+                self.at_frame(k, frame, rho, recording, direct)
+            }));
+            if !meter.advance(chunk.len()) {
+                return None;
+            }
+        }
+        Some(out)
+    }
+
+    /// Radiosity at frame number `k` (which seeds its rays), of
+    /// reflectance `rho`, and the light gathered there. Its reflected
+    /// light comes from the cache where a record is valid, its direct
+    /// light is `direct` when the GPU gathered it. `recording`: only the
+    /// reflected light, and how far it holds.
+    fn at_frame(
+        &self,
+        k: usize,
+        &(p, n, patch): &Frame,
+        rho: Vec3,
+        recording: bool,
+        direct: Option<Vec3>,
+    ) -> (Vec3, Gathered) {
+        let Some(surface) = self.scene.patches.get(patch as usize) else {
+            return (Vec3::ZERO, Gathered::default());
+        };
+        let material = self.scene.material_of(surface);
+        let mut gathered = Gathered::default();
+        // A record is gathered whatever its element's reflectance: a black
+        // texel's element lends its light to the white ones beside it.
+        if rho.max_element() > 0.0 || recording {
+            let at = Receiver { p, n, patch };
+            let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
+            let cached = self
+                .reflected_cache
+                .as_ref()
+                .and_then(|cache| cache.lookup(p, n, patch));
+            if self.reflected_cache.is_some() {
+                self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
+            }
+            gathered = match (cached, direct) {
+                (Some(reflected), Some(direct)) => Gathered {
+                    direct,
+                    reflected,
+                    ..Gathered::default()
+                },
+                (Some(reflected), None) => Gathered {
+                    reflected,
+                    ..self.at_point(&at, true, Sources::Emitting, &mut rng)
+                },
+                _ if recording => self.at_point(&at, true, Sources::Recording, &mut rng),
+                (None, Some(direct)) => Gathered {
+                    direct,
+                    ..self.at_point(&at, true, Sources::Reflecting, &mut rng)
+                },
+                (None, None) => self.at_point(&at, true, Sources::All, &mut rng),
+            };
+        }
+        (material.emission * PI + rho * gathered.total(), gathered)
+    }
+
+    /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
+    /// a leaf that fills much of the view takes the radiosity at its
+    /// point beside the receiver instead of its mean ([`Self::beside`]).
+    fn at_point(
+        &self,
+        at: &Receiver,
+        look_closer: bool,
+        wanted: Sources,
+        rng: &mut Pcg32,
+    ) -> Gathered {
+        let settings = &self.settings;
+        let mut gathered = Gathered::default();
+        // Clusters of patches first: far, even ones whole, the rest down
+        // to their patches' root nodes.
+        let mut stack: Vec<u32> = Vec::new();
+        let mut clusters: Vec<u32> = if self.clusters.nodes.is_empty() {
+            Vec::new()
+        } else {
+            vec![0]
+        };
+        while let Some(c) = clusters.pop() {
+            let cluster = &self.clusters.nodes[c as usize];
+            if cluster.unseen(at.p, at.n) || (!wanted.reflected() && !cluster.emits) {
+                continue;
+            }
+            let tolerance = settings.link_error * self.clusters.level;
+            if cluster.takes_whole(at.p, at.n, settings.uniformity, tolerance) {
+                if wanted == Sources::Recording {
+                    let clearance = at.p.distance(cluster.centre) - cluster.radius;
+                    gathered.clearance = gathered.clearance.min(clearance);
+                }
+                gathered.reflected += cluster.gather(
+                    (at.p, at.n, at.patch),
+                    &self.sources,
+                    &self.occluders,
+                    (wanted == Sources::Recording).then_some(&mut gathered.distance),
+                );
+                continue;
+            }
+            match cluster.children {
+                Some(children) => clusters.extend_from_slice(&children),
+                None => stack.extend_from_slice(&cluster.roots),
+            }
+        }
+        while let Some(n) = stack.pop() {
+            let node = &self.tree.nodes[n as usize];
+            if node.patch == at.patch {
+                continue;
+            }
+            let src = &self.sources[n as usize];
+            if !wanted.reflected() && !src.emits {
+                continue;
+            }
+            let even = is_even(src.lo, src.hi, settings.uniformity);
+            let distance = at.p.distance(node.centre);
+            let near = node.radius > NEAR_RADIUS * distance;
+            // A dark node adds nothing, unless it is close by and covered:
+            // its dark mean may hide a lit sliver (elements under a box but
+            // for a strip along its foot) that `beside` finds in its leaves.
+            let look_beside = look_closer && near && src.covered;
+            let dark = !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside;
+            let faces = at.faces(node.centre, node.normal, &node.polygon);
+            let far = node.radius <= settings.opening * distance;
+            let take_whole = node.children.is_empty() || (far && even);
+            // The distance to its nearest point, when recording.
+            let mut nearest = f32::INFINITY;
+            if wanted == Sources::Recording && (dark || !faces || take_whole || src.emits) {
+                // Every surface near the point bounds how far its light
+                // holds, whether it sends light, shows its back (a light
+                // hung just under a ceiling) or is dark.
+                let q = nearest_in_polygon(
+                    &node.polygon,
+                    node.normal,
+                    at.p - (at.p - node.centre).dot(node.normal) * node.normal,
+                );
+                nearest = at.p.distance(q);
+                gathered.clearance = gathered.clearance.min(nearest);
+            }
+            if dark || !faces || (src.emits && !wanted.direct()) {
+                continue;
+            }
+            if !take_whole {
+                stack.extend_from_slice(&node.children);
+                continue;
+            }
+            let ff = at.form_factor(src, near, &self.occluders, settings, rng);
+            let mut radiosity = src.radiosity;
+            if look_beside && node.children.is_empty() && !src.emits && ff > CLOSE_FF.0 {
+                if let Some(b) = self.beside(at, n, rng) {
+                    let w = ((ff - CLOSE_FF.0) / (CLOSE_FF.1 - CLOSE_FF.0)).min(1.0);
+                    radiosity = radiosity.lerp(b, w);
+                }
+            }
+            if src.emits {
+                gathered.direct += radiosity * ff;
+            } else {
+                gathered.reflected += radiosity * ff;
+                if wanted == Sources::Recording {
+                    gathered.distance.add(ff, nearest);
+                }
+            }
+        }
+        gathered
+    }
+
+    /// The radiosity of leaf `n` where a receiver close to it looks: at
+    /// the foot of the receiver on the leaf's plane, moved as far again
+    /// along the receiver's facing direction. A receiver at height h
+    /// over a surface takes most of that surface's form factor from
+    /// within a few h, so a leaf straddling a shadow or a contact (a
+    /// solved floor element under the corner of a box) would otherwise
+    /// lend its mean to a receiver that sees only its lit side: the foot
+    /// of a lit box face read 75% dark on Cornell. `None` where that
+    /// point is enclosed.
+    fn beside(&self, at: &Receiver, n: u32, rng: &mut Pcg32) -> Option<Vec3> {
+        let node = &self.tree.nodes[n as usize];
+        let height = (at.p - node.centre).dot(node.normal);
+        if height <= 0.0 {
+            return None;
+        }
+        let foot = at.p - height * node.normal;
+        let along = (at.n - at.n.dot(node.normal) * node.normal).normalize_or_zero();
+        // Where the receiver looks may lie just across the leaf's edge (a
+        // solved element's edge along the foot of a box): then the leaf's
+        // point nearest to it, a hair inside.
+        // At least a hundredth of the leaf's radius out, clear of the
+        // ray tracer's epsilon and of the receiver's own surface.
+        let out = foot + height.max(0.01 * node.radius) * along;
+        let mut q = nearest_in_polygon(&node.polygon, node.normal, out);
+        if q != out {
+            q += 1e-3 * (node.centre - q);
+        }
+        let occluders = &self.occluders;
+        if exposure::encloses(
+            self.scene,
+            occluders,
+            q,
+            node.normal,
+            tangent_frame(node.normal),
+            rng,
+        ) {
+            return None;
+        }
+        let surface = &self.scene.patches[node.patch as usize];
+        let material = self.scene.material_of(surface);
+        let rho = match node.element {
+            Some(e) => self.element_rho[e as usize],
+            None => self.patch_rho[node.patch as usize],
+        };
+        let there = Receiver {
+            p: q,
+            n: node.normal,
+            patch: node.patch,
+        };
+        let gathered = self.at_point(&there, false, Sources::All, rng);
+        Some(material.emission * PI + rho * gathered.total())
+    }
+}
