@@ -10,11 +10,11 @@ use serde_json::{json, Value};
 
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
-use crate::gpu::{Device, DeviceOptions, StageTimes};
-use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshReport, MeshSettings, Mesher};
+use crate::gpu::{Device, DeviceOptions};
+use crate::mesh;
+use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
-use crate::mesh::{self, Mesh};
-use crate::output::image_io::{save_image, HdrImage};
+use crate::output::image_io::save_image;
 use crate::output::tonemap::auto_exposure;
 use crate::render::{default_camera, export_lit_mesh, render_image};
 use crate::scene::{self, Camera, Scene};
@@ -24,8 +24,11 @@ use crate::solve::solution::{add_ambient, add_ambient_to_elements};
 pub use crate::solve::vertex_gather::display::DISPLAY_REFINEMENTS;
 use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
 use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
-use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, Solution, SolveSettings};
+use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, SolveSettings};
 use crate::trace::{cat, span_since, Trace};
+
+mod report;
+pub use report::{write_report, Report};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -141,59 +144,6 @@ impl CameraOverride {
     }
 }
 
-/// What a run did, for the summary and for tests.
-pub struct Report {
-    pub device: String,
-    pub device_kind: &'static str,
-    pub scene: Scene,
-    pub mesh: Mesh,
-    /// The finer mesh the image and the lit mesh show, when there is one
-    /// (see [`Job::display_edge`]).
-    pub display_mesh: Option<Mesh>,
-    /// Whether the vertex values shown were gathered (`Job::final_gather`).
-    pub gathered: bool,
-    /// The radiosity shown at every vertex of the display mesh (or of
-    /// `mesh` when there is none), ambient term included.
-    pub vertex_radiosity: Vec<[f32; 3]>,
-    pub max_edge: f32,
-    pub mesh_report: MeshReport,
-    /// What the mesh was estimated to cost before it was built.
-    pub estimate: CostEstimate,
-    /// Element counts of every mesh solved (more than one with --adaptive).
-    pub adaptive_elements: Vec<usize>,
-    /// The estimated relative RMS interpolation error of every mesh solved
-    /// with --adaptive (all but the last drive a refinement pass; the last
-    /// is measured after it).
-    pub adaptive_errors: Vec<f64>,
-    pub solution: Solution,
-    pub image: HdrImage,
-    /// Exposure used for the PNG/PLY colours (given or automatic).
-    pub exposure: f32,
-    /// The ambient term added to the image of an unfinished solution.
-    pub ambient: Option<glam::Vec3>,
-    pub output: PathBuf,
-    pub export: Option<PathBuf>,
-    /// Things the user should know about the result (besides scene warnings).
-    pub warnings: Vec<String>,
-    /// Wall time per stage: load, mesh, solve, render, write.
-    pub wall: Vec<(&'static str, f64)>,
-    /// GPU time per pass (timestamps) across solve and render.
-    pub gpu_times: StageTimes,
-    /// The stage an interrupt stopped (`"solve"`, `"gather"`, `"display
-    /// refinement"`), or `None`. Interrupted in the gather, the image shows
-    /// the solver's own vertex values on the solved mesh.
-    pub interrupted: Option<&'static str>,
-    /// The Jacobi passes the final gather ran (at most the job's; fewer
-    /// where the solve's residual needed fewer).
-    pub gather_passes: Option<usize>,
-    /// Display points that took the light reflected onto them from the
-    /// element centres, and points that gathered it (`--reflected-reuse`).
-    pub reflected_reuse: (usize, usize),
-    /// Whether the GPU gathered the emitters' direct light
-    /// (`--direct-light`).
-    pub direct_on_gpu: bool,
-}
-
 const IMAGE_EXTENSIONS: &[&str] = &["png", "hdr", "exr"];
 const MESH_EXTENSIONS: &[&str] = &["ply", "obj", "glb", "gltf"];
 
@@ -231,87 +181,15 @@ pub fn check_output_path(path: &Path, allowed: &[&str]) -> Result<()> {
     Ok(())
 }
 
-impl Report {
-    /// The run as JSON: settings, results and timings (`--report`).
-    pub fn to_json(&self, job: &Job) -> serde_json::Value {
-        let s = &self.solution;
-        let wall: serde_json::Map<String, serde_json::Value> = self
-            .wall
-            .iter()
-            .map(|(stage, secs)| (stage.to_string(), serde_json::json!(secs)))
-            .collect();
-        serde_json::json!({
-            "vkrad": env!("CARGO_PKG_VERSION"),
-            "device": { "name": self.device, "kind": self.device_kind },
-            "settings": {
-                "scene": job.scene,
-                "max_edge": self.max_edge,
-                "hemicube_res": job.solve.hemicube_res,
-                "converge": job.solve.converge,
-                "stop_error": job.solve.unshot_share,
-                "shooting": format!("{:?}", job.solve.shooting),
-                "max_shots": job.solve.max_shots,
-                "size": [job.size.0, job.size.1],
-                "exposure": self.exposure,
-                "ambient": self.ambient.map(|a| a.to_array()),
-            },
-            "scene": {
-                "source": self.scene.source.display().to_string(),
-                "patches": self.scene.patches.len(),
-                "materials": self.scene.materials.len(),
-                "warnings": self.scene.warnings,
-                "run_warnings": self.warnings,
-                "emitted_power": s.emitted_power,
-            },
-            "mesh": {
-                "elements": self.mesh.elements.len(),
-                "vertices": self.mesh.vertices.len(),
-                "triangles": self.mesh.triangle_count(),
-            },
-            "solve": {
-                "shots": s.shots,
-                "residual": s.residual,
-                "unshot_share": s.unshot_share,
-                "converged": s.converged,
-                "interrupted": s.interrupted,
-                "wall_s": s.wall_seconds,
-                "shots_per_s": s.shots as f64 / s.wall_seconds.max(1e-12),
-            },
-            "timing": {
-                "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
-                "wall_s": wall,
-                "passes": self.gpu_times.passes_json(),
-            },
-            "interrupted_in": self.interrupted,
-            "gather_passes": self.gather_passes,
-            "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
-            "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
-            "outputs": {
-                "image": self.output.display().to_string(),
-                "mesh": self.export.as_ref().map(|p| p.display().to_string()),
-            },
-        })
-    }
-}
-
-/// Writes `report` (JSON) atomically.
-pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
-    crate::output::write_atomically(path, |w| {
-        serde_json::to_writer_pretty(&mut *w, report).map_err(|e| Error::Output {
-            path: path.to_owned(),
-            what: e.to_string(),
-        })?;
-        std::io::Write::write_all(w, b"\n").map_err(|e| Error::io(path, e))
-    })
-}
-
 /// What a running job reports, for a progress display.
 #[derive(Debug, Clone, Copy)]
 pub enum Update<'a> {
     /// A batch of shots of the solve.
     Shot(&'a Progress),
     /// A stage after the solve: `done` of `total` points (the total may
-    /// grow as the stage learns more, e.g. a display refinement pass).
+    /// grow as the stage learns more, e.g. a display refinement pass);
+    /// `total` 0: a stage that counts nothing (the display mesh, the
+    /// render), announced as it starts.
     Stage {
         stage: &'static str,
         done: usize,
@@ -500,6 +378,15 @@ pub fn run_scene(
     // converged to a tolerance), the ambient term stands in for it.
     let ambient = (job.ambient && solution.residual > 0.0).then(|| solution.ambient(&mesh));
     let t = Instant::now();
+    // Stages that count nothing still say that they run (the progress line
+    // would otherwise show the solve's last shot for their whole time).
+    if job.final_gather.is_some() && job.adaptive == 0 && !solution.interrupted {
+        on_update(&Update::Stage {
+            stage: "display mesh",
+            done: 0,
+            total: 0,
+        });
+    }
     let request = DisplayRequest {
         edge: job.display_edge,
         mesher: job.display_mesher,
@@ -631,6 +518,11 @@ pub fn run_scene(
     }
     let display_mesh = display.map(|d| d.mesh);
     let t = Instant::now();
+    on_update(&Update::Stage {
+        stage: "render",
+        done: 0,
+        total: 0,
+    });
     let radiance = crate::render::radiance_of(shown.clone());
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
     let image = render_image(

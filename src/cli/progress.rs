@@ -84,10 +84,17 @@ impl ProgressLine {
                 now
             }
         };
-        if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
+        let first = began == now;
+        if !self.enabled || (!first && self.last_draw.elapsed() < Duration::from_millis(200)) {
             return;
         }
         self.last_draw = now;
+        if total == 0 {
+            // A stage that counts nothing: its name, so the line is not
+            // left showing the stage before it.
+            eprint!("\r  {stage} ...{:60}", "");
+            return;
+        }
         let done_share = (done as f64 / total.max(1) as f64).clamp(0.0, 1.0);
         let t = began.elapsed().as_secs_f64();
         // Rate and ETA once there is a second to judge them by.

@@ -1,0 +1,140 @@
+//! What a run did: the [`Report`] the CLI prints, and its JSON form
+//! (`--report`).
+
+use std::path::{Path, PathBuf};
+
+use super::Job;
+use crate::error::{Error, Result};
+use crate::gpu::StageTimes;
+use crate::mesh::build::{CostEstimate, MeshReport};
+use crate::mesh::Mesh;
+use crate::output::image_io::HdrImage;
+use crate::scene::Scene;
+use crate::solve::Solution;
+
+/// What a run did, for the summary and for tests.
+pub struct Report {
+    pub device: String,
+    pub device_kind: &'static str,
+    pub scene: Scene,
+    pub mesh: Mesh,
+    /// The finer mesh the image and the lit mesh show, when there is one
+    /// (see [`Job::display_edge`]).
+    pub display_mesh: Option<Mesh>,
+    /// Whether the vertex values shown were gathered (`Job::final_gather`).
+    pub gathered: bool,
+    /// The radiosity shown at every vertex of the display mesh (or of
+    /// `mesh` when there is none), ambient term included.
+    pub vertex_radiosity: Vec<[f32; 3]>,
+    pub max_edge: f32,
+    pub mesh_report: MeshReport,
+    /// What the mesh was estimated to cost before it was built.
+    pub estimate: CostEstimate,
+    /// Element counts of every mesh solved (more than one with --adaptive).
+    pub adaptive_elements: Vec<usize>,
+    /// The estimated relative RMS interpolation error of every mesh solved
+    /// with --adaptive (all but the last drive a refinement pass; the last
+    /// is measured after it).
+    pub adaptive_errors: Vec<f64>,
+    pub solution: Solution,
+    pub image: HdrImage,
+    /// Exposure used for the PNG/PLY colours (given or automatic).
+    pub exposure: f32,
+    /// The ambient term added to the image of an unfinished solution.
+    pub ambient: Option<glam::Vec3>,
+    pub output: PathBuf,
+    pub export: Option<PathBuf>,
+    /// Things the user should know about the result (besides scene warnings).
+    pub warnings: Vec<String>,
+    /// Wall time per stage: load, mesh, solve, render, write.
+    pub wall: Vec<(&'static str, f64)>,
+    /// GPU time per pass (timestamps) across solve and render.
+    pub gpu_times: StageTimes,
+    /// The stage an interrupt stopped (`"solve"`, `"gather"`, `"display
+    /// refinement"`), or `None`. Interrupted in the gather, the image shows
+    /// the solver's own vertex values on the solved mesh.
+    pub interrupted: Option<&'static str>,
+    /// The Jacobi passes the final gather ran (at most the job's; fewer
+    /// where the solve's residual needed fewer).
+    pub gather_passes: Option<usize>,
+    /// Display points that took the light reflected onto them from the
+    /// element centres, and points that gathered it (`--reflected-reuse`).
+    pub reflected_reuse: (usize, usize),
+    /// Whether the GPU gathered the emitters' direct light
+    /// (`--direct-light`).
+    pub direct_on_gpu: bool,
+}
+
+impl Report {
+    /// The run as JSON: settings, results and timings (`--report`).
+    pub fn to_json(&self, job: &Job) -> serde_json::Value {
+        let s = &self.solution;
+        let wall: serde_json::Map<String, serde_json::Value> = self
+            .wall
+            .iter()
+            .map(|(stage, secs)| (stage.to_string(), serde_json::json!(secs)))
+            .collect();
+        serde_json::json!({
+            "vkrad": env!("CARGO_PKG_VERSION"),
+            "device": { "name": self.device, "kind": self.device_kind },
+            "settings": {
+                "scene": job.scene,
+                "max_edge": self.max_edge,
+                "hemicube_res": job.solve.hemicube_res,
+                "converge": job.solve.converge,
+                "stop_error": job.solve.unshot_share,
+                "shooting": format!("{:?}", job.solve.shooting),
+                "max_shots": job.solve.max_shots,
+                "size": [job.size.0, job.size.1],
+                "exposure": self.exposure,
+                "ambient": self.ambient.map(|a| a.to_array()),
+            },
+            "scene": {
+                "source": self.scene.source.display().to_string(),
+                "patches": self.scene.patches.len(),
+                "materials": self.scene.materials.len(),
+                "warnings": self.scene.warnings,
+                "run_warnings": self.warnings,
+                "emitted_power": s.emitted_power,
+            },
+            "mesh": {
+                "elements": self.mesh.elements.len(),
+                "vertices": self.mesh.vertices.len(),
+                "triangles": self.mesh.triangle_count(),
+            },
+            "solve": {
+                "shots": s.shots,
+                "residual": s.residual,
+                "unshot_share": s.unshot_share,
+                "converged": s.converged,
+                "interrupted": s.interrupted,
+                "wall_s": s.wall_seconds,
+                "shots_per_s": s.shots as f64 / s.wall_seconds.max(1e-12),
+            },
+            "timing": {
+                "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
+                "wall_s": wall,
+                "passes": self.gpu_times.passes_json(),
+            },
+            "interrupted_in": self.interrupted,
+            "gather_passes": self.gather_passes,
+            "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
+            "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
+            "outputs": {
+                "image": self.output.display().to_string(),
+                "mesh": self.export.as_ref().map(|p| p.display().to_string()),
+            },
+        })
+    }
+}
+
+/// Writes `report` (JSON) atomically.
+pub fn write_report(path: &Path, report: &serde_json::Value) -> Result<()> {
+    crate::output::write_atomically(path, |w| {
+        serde_json::to_writer_pretty(&mut *w, report).map_err(|e| Error::Output {
+            path: path.to_owned(),
+            what: e.to_string(),
+        })?;
+        std::io::Write::write_all(w, b"\n").map_err(|e| Error::io(path, e))
+    })
+}
