@@ -454,8 +454,9 @@ fn the_final_gather_agrees_with_its_direct_light_on_the_gpu() {
         100.0 * rms,
         100.0 * bias
     );
+    // Measured: 0.06% and +0.01% (the two gathers' ray noise).
     assert!(
-        rms < 0.02 && bias.abs() < 0.003,
+        rms < 0.005 && bias.abs() < 0.001,
         "rel. RMS {rms}, bias {bias}"
     );
     common::assert_validation_clean(&device);
