@@ -48,27 +48,34 @@ pub(super) struct Gather<'a> {
     pub(super) gpu_direct: Option<GpuDirect>,
 }
 
-/// Which sources a point gathers from.
+/// Which sources a point gathers from, and whether it measures how far
+/// its reflected light holds ([`Gathered::clearance`], for the cache's
+/// records).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Sources {
-    All,
-    /// Only the emitting ones (the rest comes from the reflected cache).
-    Emitting,
-    /// Only the others (the GPU gathers the direct light).
-    Reflecting,
-    /// The others, measuring [`Gathered::clearance`] too (the cache's
-    /// records, which keep only the reflected light).
-    Recording,
+pub(super) struct Sources {
+    /// The emitting ones.
+    direct: bool,
+    /// The others.
+    reflected: bool,
+    record: bool,
 }
 
 impl Sources {
-    fn direct(self) -> bool {
-        matches!(self, Sources::All | Sources::Emitting)
-    }
-
-    fn reflected(self) -> bool {
-        self != Sources::Emitting
-    }
+    const ALL: Sources = Sources {
+        direct: true,
+        reflected: true,
+        record: false,
+    };
+    /// The rest comes from the reflected cache.
+    const EMITTING: Sources = Sources {
+        reflected: false,
+        ..Sources::ALL
+    };
+    /// The GPU gathers the direct light.
+    const REFLECTING: Sources = Sources {
+        direct: false,
+        ..Sources::ALL
+    };
 }
 
 /// A point's gathered light, split by the kind of source.
@@ -134,26 +141,27 @@ impl Gather<'_> {
         rho: Option<&[Vec3]>,
         meter: &mut Meter,
     ) -> Option<Vec<[f32; 3]>> {
-        let gathered = self.gather_points(frames, rho, false, meter)?;
+        let gathered = self.gather_points(frames, rho, None, meter)?;
         Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
     }
 
     /// [`Self::at_points`] with each point's gathered light by kind;
-    /// `recording`: measure how far each one's light holds.
+    /// `record`: measure how far each one's reflected light holds, and
+    /// (`Some(false)`) gather only that.
     pub(super) fn gather_points(
         &self,
         frames: &[Frame],
         rho: Option<&[Vec3]>,
-        recording: bool,
+        record: Option<bool>,
         meter: &mut Meter,
     ) -> Option<Vec<(Vec3, Gathered)>> {
         let mut out = Vec::with_capacity(frames.len());
         // The Jacobi passes at the element centres, or the points asked for.
         let name = ["gather points", "element-centre pass"][usize::from(rho.is_some())];
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
-            // The GPU's share first (the records need no direct light).
-            let direct = match (&self.gpu_direct, recording) {
-                (Some(gpu), false) => gpu.direct(c * CHUNK, chunk),
+            // The GPU's share first (unless only records are wanted).
+            let direct = match (&self.gpu_direct, record) {
+                (Some(gpu), None | Some(true)) => gpu.direct(c * CHUNK, chunk),
                 _ => None,
             };
             let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
@@ -168,7 +176,7 @@ impl Gather<'_> {
                         .unwrap_or_default(),
                 };
                 let direct = direct.as_ref().map(|d| d[i]);
-                self.at_frame(k, frame, rho, recording, direct)
+                self.at_frame(k, frame, rho, record, direct)
             }));
             if !meter.advance(chunk.len()) {
                 return None;
@@ -180,14 +188,14 @@ impl Gather<'_> {
     /// Radiosity at frame number `k` (which seeds its rays), of
     /// reflectance `rho`, and the light gathered there. Its reflected
     /// light comes from the cache where a record is valid, its direct
-    /// light is `direct` when the GPU gathered it. `recording`: only the
-    /// reflected light, and how far it holds.
+    /// light is `direct` when the GPU gathered it. `record`: measure how
+    /// far its reflected light holds, and (`Some(false)`) gather only that.
     fn at_frame(
         &self,
         k: usize,
         &(p, n, patch): &Frame,
         rho: Vec3,
-        recording: bool,
+        record: Option<bool>,
         direct: Option<Vec3>,
     ) -> (Vec3, Gathered) {
         let Some(surface) = self.scene.patches.get(patch as usize) else {
@@ -197,7 +205,7 @@ impl Gather<'_> {
         let mut gathered = Gathered::default();
         // A record is gathered whatever its element's reflectance: a black
         // texel's element lends its light to the white ones beside it.
-        if rho.max_element() > 0.0 || recording {
+        if rho.max_element() > 0.0 || record.is_some() {
             let at = Receiver { p, n, patch };
             let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
             let cached = self
@@ -215,14 +223,25 @@ impl Gather<'_> {
                 },
                 (Some(reflected), None) => Gathered {
                     reflected,
-                    ..self.at_point(&at, true, Sources::Emitting, &mut rng)
+                    ..self.at_point(&at, true, Sources::EMITTING, &mut rng)
                 },
-                _ if recording => self.at_point(&at, true, Sources::Recording, &mut rng),
+                (None, direct) if record.is_some() => {
+                    let wanted = Sources {
+                        direct: record == Some(true) && direct.is_none(),
+                        reflected: true,
+                        record: true,
+                    };
+                    let mut gathered = self.at_point(&at, true, wanted, &mut rng);
+                    if let Some(direct) = direct {
+                        gathered.direct = direct;
+                    }
+                    gathered
+                }
                 (None, Some(direct)) => Gathered {
                     direct,
-                    ..self.at_point(&at, true, Sources::Reflecting, &mut rng)
+                    ..self.at_point(&at, true, Sources::REFLECTING, &mut rng)
                 },
-                (None, None) => self.at_point(&at, true, Sources::All, &mut rng),
+                (None, None) => self.at_point(&at, true, Sources::ALL, &mut rng),
             };
         }
         (material.emission * PI + rho * gathered.total(), gathered)
@@ -250,12 +269,12 @@ impl Gather<'_> {
         };
         while let Some(c) = clusters.pop() {
             let cluster = &self.clusters.nodes[c as usize];
-            if cluster.unseen(at.p, at.n) || (!wanted.reflected() && !cluster.emits) {
+            if cluster.unseen(at.p, at.n) || (!wanted.reflected && !cluster.emits) {
                 continue;
             }
             let tolerance = settings.link_error * self.clusters.level;
             if cluster.takes_whole(at.p, at.n, settings.uniformity, tolerance) {
-                if wanted == Sources::Recording {
+                if wanted.record {
                     let clearance = at.p.distance(cluster.centre) - cluster.radius;
                     gathered.clearance = gathered.clearance.min(clearance);
                 }
@@ -263,7 +282,7 @@ impl Gather<'_> {
                     (at.p, at.n, at.patch),
                     &self.sources,
                     &self.occluders,
-                    (wanted == Sources::Recording).then_some(&mut gathered.distance),
+                    (wanted.record).then_some(&mut gathered.distance),
                 );
                 continue;
             }
@@ -278,7 +297,7 @@ impl Gather<'_> {
                 continue;
             }
             let src = &self.sources[n as usize];
-            if !wanted.reflected() && !src.emits {
+            if !wanted.reflected && !src.emits {
                 continue;
             }
             let even = is_even(src.lo, src.hi, settings.uniformity);
@@ -294,7 +313,7 @@ impl Gather<'_> {
             let take_whole = node.children.is_empty() || (far && even);
             // The distance to its nearest point, when recording.
             let mut nearest = f32::INFINITY;
-            if wanted == Sources::Recording && (dark || !faces || take_whole || src.emits) {
+            if wanted.record && (dark || !faces || take_whole || src.emits) {
                 // Every surface near the point bounds how far its light
                 // holds, whether it sends light, shows its back (a light
                 // hung just under a ceiling) or is dark.
@@ -306,7 +325,7 @@ impl Gather<'_> {
                 nearest = at.p.distance(q);
                 gathered.clearance = gathered.clearance.min(nearest);
             }
-            if dark || !faces || (src.emits && !wanted.direct()) {
+            if dark || !faces || (src.emits && !wanted.direct) {
                 continue;
             }
             if !take_whole {
@@ -325,7 +344,7 @@ impl Gather<'_> {
                 gathered.direct += radiosity * ff;
             } else {
                 gathered.reflected += radiosity * ff;
-                if wanted == Sources::Recording {
+                if wanted.record {
                     gathered.distance.add(ff, nearest);
                 }
             }
@@ -382,7 +401,7 @@ impl Gather<'_> {
             n: node.normal,
             patch: node.patch,
         };
-        let gathered = self.at_point(&there, false, Sources::All, rng);
+        let gathered = self.at_point(&there, false, Sources::ALL, rng);
         Some(material.emission * PI + rho * gathered.total())
     }
 }
