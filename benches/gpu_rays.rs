@@ -168,13 +168,7 @@ fn main() {
         let flat = FlatBvh::new(&scene);
         let flat_s = t.elapsed().as_secs_f64();
         let bvh = Arc::new(
-            GpuBvh::new(
-                &device,
-                bytemuck::cast_slice(&flat.nodes),
-                bytemuck::cast_slice(&flat.triangles),
-                flat.eps,
-            )
-            .expect("bvh upload"),
+            GpuBvh::new(&device, &flat.nodes, &flat.triangles, flat.eps).expect("bvh upload"),
         );
         println!(
             "  {name}: {} patches, {} triangles; build obvhs {:.1} ms, flat BVH {:.1} ms ({} nodes)",

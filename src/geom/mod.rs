@@ -4,6 +4,7 @@
 
 use glam::{DVec3, Vec3};
 
+pub mod bvh_layout;
 pub mod frustum;
 
 /// Newell's normal: twice the vector area of a (possibly non-planar)

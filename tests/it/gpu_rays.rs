@@ -11,8 +11,7 @@ use vkrad::formfactor::raytrace::flat_bvh::FlatBvh;
 use vkrad::formfactor::raytrace::Occluders;
 use vkrad::formfactor::sampling::Pcg32;
 use vkrad::gpu::rays::{
-    BvhNode, BvhTriangle, GatherPoint, GatherSource, GpuBvh, OcclusionPass, Segment,
-    SourceGatherPass,
+    GatherPoint, GatherSource, GpuBvh, OcclusionPass, Segment, SourceGatherPass,
 };
 use vkrad::gpu::Device;
 use vkrad::scene::Scene;
@@ -22,9 +21,7 @@ use crate::common;
 fn upload_bvh(device: &Arc<Device>, scene: &Scene) -> Arc<GpuBvh> {
     let flat = FlatBvh::new(scene);
     flat.sanity_check().unwrap();
-    let nodes: &[BvhNode] = bytemuck::cast_slice(&flat.nodes);
-    let tris: &[BvhTriangle] = bytemuck::cast_slice(&flat.triangles);
-    Arc::new(GpuBvh::new(device, nodes, tris, flat.eps).unwrap())
+    Arc::new(GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps).unwrap())
 }
 
 /// A uniform point on patch `p` (on one of its fan triangles).

@@ -12,7 +12,7 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
     ("trace", &[]),
     ("geom", &[]),
     ("scene", &["error", "geom"]),
-    ("gpu", &["error", "trace"]),
+    ("gpu", &["error", "geom", "trace"]),
     ("mesh", &["error", "geom", "scene", "gpu", "trace"]),
     ("formfactor", &["error", "geom", "scene", "mesh"]),
     ("output", &["error", "mesh"]),

@@ -14,14 +14,13 @@
 //! coordinates so that no triangle the (rounded) hit test accepts lies
 //! outside it.
 //!
-//! The layouts are std430 (`vec3` + `uint` in 16 bytes) and match
-//! `gpu::rays::{BvhNode, BvhTriangle}` byte for byte; the gpu layer knows
-//! no scene, so the caller passes these arrays with `bytemuck::cast_slice`.
+//! The layouts are `geom::bvh_layout`'s (std430), which `gpu::rays`
+//! uploads as they are.
 
-use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
 use super::occluders::{fan_triangles, hits, scene_epsilon, Tri};
+pub use crate::geom::bvh_layout::{BvhNode, BvhTriangle};
 use crate::scene::Scene;
 
 /// Deepest leaf (the root is at depth 0). The shader's stack holds 64.
@@ -30,30 +29,7 @@ pub const MAX_DEPTH: usize = 56;
 const LEAF_SIZE: usize = 4;
 const BINS: usize = 16;
 
-/// One node: bounds, and either children (`count == 0`: left = this + 1,
-/// right = `index`) or triangles (`index .. index + count`).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct FlatNode {
-    pub min: [f32; 3],
-    pub index: u32,
-    pub max: [f32; 3],
-    pub count: u32,
-}
-
-/// A triangle `v0 + u e1 + v e2` of patch `patch`.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct FlatTriangle {
-    pub v0: [f32; 3],
-    pub patch: u32,
-    pub e1: [f32; 3],
-    pub pad0: u32,
-    pub e2: [f32; 3],
-    pub pad1: u32,
-}
-
-impl FlatTriangle {
+impl BvhTriangle {
     fn tri(&self) -> Tri {
         Tri {
             v0: self.v0.into(),
@@ -73,8 +49,8 @@ impl FlatTriangle {
 #[derive(Debug, Clone, Default)]
 pub struct FlatBvh {
     /// Empty for a scene without triangles.
-    pub nodes: Vec<FlatNode>,
-    pub triangles: Vec<FlatTriangle>,
+    pub nodes: Vec<BvhNode>,
+    pub triangles: Vec<BvhTriangle>,
     /// Distance from either end of a segment within which hits are ignored
     /// (the same as [`Occluders::epsilon`](super::Occluders::epsilon)).
     pub eps: f32,
@@ -115,7 +91,7 @@ impl FlatBvh {
     pub fn new(scene: &Scene) -> Self {
         let tris = fan_triangles(scene)
             .iter()
-            .map(|t| FlatTriangle {
+            .map(|t| BvhTriangle {
                 v0: t.v0.into(),
                 patch: t.patch,
                 e1: t.e1.into(),
@@ -128,7 +104,7 @@ impl FlatBvh {
     }
 
     /// The hierarchy over `triangles` (reordered into leaf order).
-    pub fn from_triangles(triangles: Vec<FlatTriangle>, eps: f32) -> Self {
+    pub fn from_triangles(triangles: Vec<BvhTriangle>, eps: f32) -> Self {
         if triangles.is_empty() {
             return FlatBvh {
                 nodes: vec![],
@@ -222,7 +198,7 @@ impl FlatBvh {
         let mut seen = vec![0u32; self.triangles.len()];
         let mut stack = vec![(0usize, 0usize)];
         let mut visited = 0;
-        let inside = |inner: ([f32; 3], [f32; 3]), outer: &FlatNode| {
+        let inside = |inner: ([f32; 3], [f32; 3]), outer: &BvhNode| {
             (0..3).all(|k| inner.0[k] >= outer.min[k] && inner.1[k] <= outer.max[k])
         };
         while let Some((i, depth)) = stack.pop() {
@@ -288,7 +264,7 @@ fn safe_direction(d: Vec3) -> Vec3 {
 
 /// Whether the segment `a + t d`, `t` in `[tmin, tmax]`, meets the node's
 /// box (`inv = 1 / d`).
-fn slab(n: &FlatNode, a: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> bool {
+fn slab(n: &BvhNode, a: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> bool {
     let t0 = (Vec3::from(n.min) - a) * inv;
     let t1 = (Vec3::from(n.max) - a) * inv;
     let near = t0.min(t1).max_element().max(tmin);
@@ -299,7 +275,7 @@ fn slab(n: &FlatNode, a: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> bool {
 struct Builder<'a> {
     boxes: &'a [Aabb],
     centres: &'a [Vec3],
-    nodes: &'a mut Vec<FlatNode>,
+    nodes: &'a mut Vec<BvhNode>,
 }
 
 impl Builder<'_> {
@@ -401,9 +377,9 @@ impl Builder<'_> {
 }
 
 /// A node over `b`, padded by a few ulps of its coordinates.
-fn padded(b: Aabb) -> FlatNode {
+fn padded(b: Aabb) -> BvhNode {
     let pad = 4.0 * f32::EPSILON * b.lo.abs().max(b.hi.abs()) + Vec3::splat(1e-30);
-    FlatNode {
+    BvhNode {
         min: (b.lo - pad).to_array(),
         index: 0,
         max: (b.hi + pad).to_array(),

@@ -1,10 +1,9 @@
 //! Ray queries on the GPU against a BVH in storage buffers: the final
-//! gather's per-point ray work (not yet wired into the gather).
+//! gather's direct light (`solve::vertex_gather::gpu_direct`).
 //!
 //! - [`GpuBvh`] (`bvh.rs`): a binary BVH's nodes and triangles, uploaded
-//!   once (built on the CPU by `formfactor::raytrace::flat_bvh`, whose
-//!   `FlatNode`/`FlatTriangle` have these types' layout; pass them with
-//!   `bytemuck::cast_slice`).
+//!   once (built on the CPU by `formfactor::raytrace::flat_bvh`, in
+//!   `geom::bvh_layout`'s types).
 //! - [`OcclusionPass`] (`occlusion.rs`, `glsl/occlusion.comp`): segments
 //!   in, one visibility bit each out, with the rules of
 //!   `Occluders::visible` (`glsl/bvh.glsl`).
@@ -38,29 +37,7 @@ pub use bvh::GpuBvh;
 pub use gather::{SourceGatherPass, MAX_SOURCE_CORNERS};
 pub use occlusion::OcclusionPass;
 
-/// A BVH node (std430, `glsl/bvh.glsl`): `count == 0` is interior (left
-/// child = this + 1, right child = `index`), `count > 0` a leaf holding
-/// triangles `index .. index + count`. The root is node 0.
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct BvhNode {
-    pub min: [f32; 3],
-    pub index: u32,
-    pub max: [f32; 3],
-    pub count: u32,
-}
-
-/// A triangle `v0 + u e1 + v e2` of patch `patch` (std430).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
-pub struct BvhTriangle {
-    pub v0: [f32; 3],
-    pub patch: u32,
-    pub e1: [f32; 3],
-    pub pad0: u32,
-    pub e2: [f32; 3],
-    pub pad1: u32,
-}
+pub use crate::geom::bvh_layout::{BvhNode, BvhTriangle};
 
 /// A segment from `a` to `b`; triangles of patches `skip` are ignored
 /// (`u32::MAX` for none).

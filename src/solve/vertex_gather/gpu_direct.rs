@@ -45,12 +45,7 @@ impl GpuDirect {
     /// The pass over `scene`'s BVH, with no sources yet.
     pub(super) fn new(device: &Arc<Device>, scene: &Scene) -> Result<Self> {
         let flat = FlatBvh::new(scene);
-        let bvh = GpuBvh::new(
-            device,
-            bytemuck::cast_slice(&flat.nodes),
-            bytemuck::cast_slice(&flat.triangles),
-            flat.eps,
-        )?;
+        let bvh = GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps)?;
         Ok(GpuDirect {
             pass: Mutex::new(Some(SourceGatherPass::new(device, Arc::new(bvh))?)),
             emitters: Vec::new(),
