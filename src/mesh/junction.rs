@@ -371,6 +371,62 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_sliver_whose_apex_is_within_f32_steps_of_its_own_side_is_left_whole() {
+        // Regression (the 1,500-letter field, 204,002 polygons, patch 3091;
+        // coordinates of the crop that reproduced it): far from the origin
+        // a sliver's apex (d) lies within the coplanar check's f32 slack of
+        // its own side c-b. That is no T-junction: both elements on c-b
+        // have its ends. Splitting c-b at a copy of d made an element of
+        // zero area.
+        let (x0, z0, y) = (90.0f32, 1.2f32, 3.4f32);
+        let p = |u: f32, z: f32| Vec3::new(x0 + u, y, z);
+        let (a, b, e, f) = (p(0.0, z0), p(0.0, 1.8), p(0.1, z0), p(0.1, 1.8));
+        let (c, d) = (p(0.0006, 1.664), p(0.0006, 1.68));
+        // Counter-clockwise seen from -y (the patch's normal).
+        let s = scene(&[&[a, b, f, e]]);
+        let vertices = vec![a, b, e, f, c, d];
+        let (ia, ib, ie, if_, ic, id) = (0, 1, 2, 3, 4, 5);
+        let normal = s.patches[0].normal;
+        let tris = [
+            [ia, ic, ie],
+            [ic, id, ie],
+            [id, if_, ie],
+            [id, ib, if_],
+            [ic, ib, id], // the sliver: d is 7e-5 from c-b
+            [ia, ib, ic],
+        ];
+        let elements: Vec<Element> = tris
+            .iter()
+            .map(|t| {
+                let pts: Vec<Vec3> = t.iter().map(|&v| vertices[v as usize]).collect();
+                let (area, centre) = polygon_area_centroid(&pts);
+                assert!((pts[1] - pts[0]).cross(pts[2] - pts[0]).dot(normal) > 0.0);
+                Element {
+                    corners: [t[0], t[1], t[2], 0],
+                    corner_count: 3,
+                    patch: 0,
+                    area,
+                    centre,
+                    normal,
+                }
+            })
+            .collect();
+        let mut mesh = Mesh {
+            vertices,
+            elements,
+            patch_elements: vec![0..6],
+        };
+        let slack = crate::mesh::sanity::F32_SLACK * 90.0;
+        let (cb, cd) = ((b - c).as_dvec3().normalize(), (d - c).as_dvec3());
+        let off = (cd - cd.dot(cb) * cb).length();
+        assert!(off < slack, "the apex is {off} from c-b, the slack {slack}");
+        assert!(coplanar_t_junctions(&mesh, &s).is_empty());
+        assert_eq!(remove_t_junctions(&mut mesh, &s), 0);
+        assert_eq!(mesh.elements.len(), 6);
+        assert_clean(&s, &mesh);
+    }
+
     /// `polys` and their copy in a tilted plane, meshed uniformly at
     /// `max_edge`, pass the sanity and coplanar checks.
     fn tilted_copy_is_sound(mut polys: Vec<Vec<Vec3>>, max_edge: f32) {

@@ -21,7 +21,8 @@ const DUPLICATE_TOL: f64 = 1e-6;
 const ON_EDGE_TOL: f64 = 1e-5;
 /// Relative tolerance (to the scene extent) for a vertex to lie on its plane.
 const PLANE_TOL: f64 = 1e-4;
-/// Relative tolerance (to the patch area) for element areas to sum to it.
+/// Relative tolerance (to the patch area) for element areas to sum to it
+/// (or an f32 step at the patch's coordinates times its perimeter).
 const AREA_SUM_TOL: f64 = 1e-4;
 /// Below this fraction of its patch's area an element counts as degenerate.
 const MIN_AREA: f64 = 1e-9;
@@ -221,7 +222,18 @@ impl Mesh {
                     }
                 }
             }
-            if (area_sum - patch_area).abs() > AREA_SUM_TOL * patch_area {
+            // Each boundary vertex is stored to an f32 step of where it
+            // belongs: a thin patch far from the origin (a letter's side at
+            // x = 130) moves by that step times its perimeter, which can
+            // exceed AREA_SUM_TOL of its area.
+            let perimeter: f64 = (0..patch.vertices.len())
+                .map(|k| {
+                    d(patch.vertices[k]).distance(d(patch.vertices[(k + 1) % patch.vertices.len()]))
+                })
+                .sum();
+            let f32_step = f64::from(f32::EPSILON) * lo.abs().max(hi.abs()).max_element();
+            let area_tol = (AREA_SUM_TOL * patch_area).max(f32_step * perimeter);
+            if (area_sum - patch_area).abs() > area_tol {
                 return Err(format!(
                     "patch {p}: element areas sum to {area_sum:e}, the patch area is {patch_area:e}"
                 ));
@@ -650,6 +662,41 @@ mod tests {
             centre,
             normal: Vec3::Z,
         }
+    }
+
+    #[test]
+    fn a_thin_patch_far_out_may_lose_an_f32_step_of_area() {
+        // Regression (the 1,500-letter field, patch 4437): a letter's side
+        // 0.072 wide at x = 130, whose boundary vertex on its long side is
+        // stored one f32 step inside it, sums 1.1e-4 of its area short.
+        let (x0, x1, z0, z1) = (130.1f32, 130.172_32f32, 1.2f32, 1.8f32);
+        let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let corners = [p(x0, z0), p(x1, z0), p(x1, z1), p(x0, z1)];
+        let s = scene(&[&corners]);
+        let inward = f32::from_bits(x0.to_bits() + 1);
+        let mut points = corners.to_vec();
+        points.push(p(inward, 0.5 * (z0 + z1)));
+        let tri = |c: [u32; 3]| {
+            let mut e = quad([c[0], c[1], c[2], 0], &points, 0);
+            e.corner_count = 3;
+            let pts: Vec<Vec3> = c.iter().map(|&i| points[i as usize]).collect();
+            (e.area, e.centre) = crate::mesh::uniform::polygon_area_centroid(&pts);
+            e
+        };
+        let mesh = Mesh {
+            vertices: points.clone(),
+            elements: vec![tri([0, 1, 4]), tri([1, 2, 4]), tri([2, 3, 4])],
+            patch_elements: one_range(3),
+        };
+        let sum: f32 = mesh.elements.iter().map(|e| e.area).sum();
+        let short = 1.0 - f64::from(sum) / f64::from(s.patches[0].area);
+        assert!(short > super::AREA_SUM_TOL, "{short}");
+        mesh.sanity_check(&s).expect("sane within an f32 step");
+        // A real hole is still one.
+        let mut holed = mesh.clone();
+        holed.elements.pop();
+        holed.patch_elements = one_range(2);
+        fails_with(&s, &holed, "element areas sum to");
     }
 
     #[test]

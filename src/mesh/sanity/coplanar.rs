@@ -198,12 +198,42 @@ pub fn coplanar_t_junctions(mesh: &Mesh, scene: &Scene) -> Vec<TJunction> {
         }
         out
     };
-    mesh.elements
+    let found: Vec<TJunction> = mesh
+        .elements
         .par_iter()
         .enumerate()
         .map_init(Vec::new, per_element)
         .flatten_iter()
-        .collect()
+        .collect();
+    without_apexes(mesh, found)
+}
+
+/// `found` less the vertices that are a corner of an element with that
+/// edge. Such a vertex is a sliver's apex within the tolerance of its own
+/// side, not a T-junction: every element on the edge has both its ends, so
+/// the two sides are interpolated from the same vertices. (Splitting the
+/// edge there would put a second vertex at the apex, and between the two an
+/// element of no area: a 204k-polygon field did.)
+fn without_apexes(mesh: &Mesh, mut found: Vec<TJunction>) -> Vec<TJunction> {
+    if found.is_empty() {
+        return found;
+    }
+    let key = |a: u32, b: u32| (a.min(b), a.max(b));
+    let mut apexes: HashMap<(u32, u32), Vec<u32>> = found
+        .iter()
+        .map(|j| (key(j.edge[0], j.edge[1]), Vec::new()))
+        .collect();
+    for el in &mesh.elements {
+        let c = el.corners();
+        for k in 0..c.len() {
+            let (a, b) = (c[k], c[(k + 1) % c.len()]);
+            if let Some(list) = apexes.get_mut(&key(a, b)) {
+                list.extend(c.iter().copied().filter(|&v| v != a && v != b));
+            }
+        }
+    }
+    found.retain(|j| !apexes[&key(j.edge[0], j.edge[1])].contains(&j.vertex));
+    found
 }
 
 /// The used vertices in nested uniform grids: level 0 has cells of about
