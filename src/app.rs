@@ -27,7 +27,9 @@ use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather}
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, SolveSettings};
 use crate::trace::{cat, span_since, Trace};
 
+mod memory;
 mod report;
+pub use memory::{peak_resident_bytes, EstimatePart, RunEstimate, RunShape, StageLog};
 pub use report::{write_report, Report};
 
 /// Everything `vkrad SCENE` can be asked to do.
@@ -222,12 +224,12 @@ pub fn run(
 /// Ends stage `name` begun at `start`: its wall time, and its span in the
 /// trace when there is one (`args` built only then).
 fn end_stage(
-    wall: &mut Vec<(&'static str, f64)>,
+    log: &mut StageLog,
     trace: Option<&Trace>,
     (name, start): (&'static str, Instant),
     args: impl FnOnce() -> Value,
 ) {
-    wall.push((name, start.elapsed().as_secs_f64()));
+    log.end(name, start.elapsed().as_secs_f64());
     span_since(trace, cat::STAGE, name, start, args);
 }
 
@@ -248,6 +250,17 @@ pub fn estimate(job: &Job, scene: &Scene) -> CostEstimate {
     CostEstimate::new(scene, &mesh_settings(job, scene))
 }
 
+/// What the whole job will hold at its peak, before any of it is built.
+pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
+    let shape = RunShape {
+        mesh: mesh_settings(job, scene),
+        display: (job.final_gather.is_some() && job.adaptive == 0)
+            .then_some((job.display_edge, job.display_mesher)),
+        size: job.size,
+    };
+    RunEstimate::new(scene, &shape)
+}
+
 /// [`run`] on a scene already loaded (in `load_seconds`).
 pub fn run_scene(
     job: &Job,
@@ -256,7 +269,8 @@ pub fn run_scene(
     device: Option<Arc<Device>>,
     on_progress: impl FnMut(&Update) -> bool,
 ) -> Result<Report> {
-    let mut wall = vec![("load", load_seconds)];
+    let mut log = StageLog::default();
+    log.end("load", load_seconds);
     let t = Instant::now();
     let output = job
         .output
@@ -267,7 +281,7 @@ pub fn run_scene(
         check_output_path(export, MESH_EXTENSIONS)?;
     }
     let camera = job.camera.apply(default_camera(&scene));
-    wall[0].1 += t.elapsed().as_secs_f64();
+    log.wall[0].1 += t.elapsed().as_secs_f64();
 
     if job.adaptive > 0 && job.mesher == Mesher::Uniform {
         return Err(Error::Invalid(
@@ -294,6 +308,10 @@ pub fn run_scene(
     let max_edge = settings.max_edge;
     let cost = CostEstimate::new(&scene, &settings);
     let mut builder = MeshBuilder::new(&device, &scene, settings)?;
+    // Refuse what would not fit before any of it is built (the builder
+    // has refused a mesh that alone would not).
+    let memory = run_estimate(job, &scene);
+    memory.check(None)?;
     let (mesh, mesh_report) = builder.build(&[])?;
     if job.check_mesh {
         check_mesh(&mesh, &scene, job.mesher)?;
@@ -301,7 +319,7 @@ pub fn run_scene(
     let trace = device.trace.clone();
     let trace = trace.as_deref();
     end_stage(
-        &mut wall,
+        &mut log,
         trace,
         ("mesh", t),
         || json!({ "elements": mesh.elements.len(), "vertices": mesh.vertices.len() }),
@@ -318,7 +336,7 @@ pub fn run_scene(
     };
     let solution = solve(&device, &scene, &mesh, &solve_settings, &mut on_progress)?;
     end_stage(
-        &mut wall,
+        &mut log,
         trace,
         ("solve", t),
         || json!({ "shots": solution.shots, "elements": mesh.elements.len(), "residual": solution.residual }),
@@ -351,7 +369,7 @@ pub fn run_scene(
         &mut on_progress,
     )?;
     for &(name, secs) in &history.wall {
-        add_wall(&mut wall, name, secs);
+        add_wall(&mut log.wall, name, secs);
     }
     let Solved {
         mesh,
@@ -398,9 +416,14 @@ pub fn run_scene(
         }
         _ => None,
     };
-    if display.is_some() {
+    if let Some(d) = &display {
+        // The display mesh's size is known now: the gather and the render
+        // are checked against it before they grow.
+        memory
+            .with_display(d.mesh.elements.len() as u64)
+            .check(None)?;
         end_stage(
-            &mut wall,
+            &mut log,
             trace,
             ("display mesh", t),
             || json!({ "elements": display.as_ref().map(|d| d.mesh.elements.len()) }),
@@ -510,7 +533,7 @@ pub fn run_scene(
     };
     if job.final_gather.is_some() {
         end_stage(
-            &mut wall,
+            &mut log,
             trace,
             ("gather", t),
             || json!({ "vertices": shown.len() }),
@@ -536,7 +559,7 @@ pub fn run_scene(
         &mut gpu_times,
     )?;
     end_stage(
-        &mut wall,
+        &mut log,
         trace,
         ("render", t),
         || json!({ "size": [job.size.0, job.size.1], "elements": shown_mesh.elements.len() }),
@@ -549,7 +572,7 @@ pub fn run_scene(
         export_lit_mesh(export, &scene, shown_mesh, &shown, exposure)?;
     }
     end_stage(
-        &mut wall,
+        &mut log,
         trace,
         ("write", t),
         || json!({ "image": output.display().to_string() }),
@@ -567,6 +590,7 @@ pub fn run_scene(
         max_edge,
         mesh_report,
         estimate: cost,
+        memory,
         adaptive_elements: history.elements,
         adaptive_errors: history.errors,
         solution,
@@ -576,7 +600,8 @@ pub fn run_scene(
         output,
         export: job.export.clone(),
         warnings,
-        wall,
+        peak_memory: log.peak,
+        wall: log.wall,
         gpu_times,
         interrupted,
         gather_passes: final_gather.map(|g| g.source_passes),

@@ -30,6 +30,8 @@ pub struct Report {
     pub mesh_report: MeshReport,
     /// What the mesh was estimated to cost before it was built.
     pub estimate: CostEstimate,
+    /// What the whole run was estimated to hold at its peak.
+    pub memory: super::RunEstimate,
     /// Element counts of every mesh solved (more than one with --adaptive).
     pub adaptive_elements: Vec<usize>,
     /// The estimated relative RMS interpolation error of every mesh solved
@@ -48,6 +50,9 @@ pub struct Report {
     pub warnings: Vec<String>,
     /// Wall time per stage: load, mesh, solve, render, write.
     pub wall: Vec<(&'static str, f64)>,
+    /// The process's peak resident set (bytes) when each stage ended (0
+    /// where the system does not say).
+    pub peak_memory: Vec<(&'static str, u64)>,
     /// GPU time per pass (timestamps) across solve and render.
     pub gpu_times: StageTimes,
     /// The stage an interrupt stopped (`"solve"`, `"gather"`, `"display
@@ -97,6 +102,10 @@ impl Report {
                 "run_warnings": self.warnings,
                 "emitted_power": s.emitted_power,
             },
+            "display_mesh": self.display_mesh.as_ref().map(|m| serde_json::json!({
+                "elements": m.elements.len(),
+                "vertices": m.vertices.len(),
+            })),
             "mesh": {
                 "elements": self.mesh.elements.len(),
                 "vertices": self.mesh.vertices.len(),
@@ -115,6 +124,13 @@ impl Report {
                 "source": if self.gpu_times.gpu { "gpu-timestamps" } else { "cpu-timers" },
                 "wall_s": wall,
                 "passes": self.gpu_times.passes_json(),
+            },
+            "memory": {
+                "estimate_bytes": self.memory.total_bytes(),
+                "estimate_parts": self.memory.parts.iter().map(|p| (p.stage.to_string(), serde_json::json!(p.bytes))).collect::<serde_json::Map<_, _>>(),
+                "estimate_elements": { "solved": self.estimate.elements, "exact": self.estimate.exact, "display": self.memory.display_elements },
+                "peak_bytes": self.peak_memory.iter().map(|&(_, b)| b).max(),
+                "peak_bytes_after": self.peak_memory.iter().map(|&(stage, b)| (stage.to_string(), serde_json::json!(b))).collect::<serde_json::Map<_, _>>(),
             },
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,

@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 
 use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
 use super::print::{
-    describe_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
+    describe_run_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
     print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
@@ -132,9 +132,9 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         t,
         || serde_json::json!({ "patches": scene.patches.len() }),
     );
-    let estimate = vkrad::app::estimate(&job, &scene);
-    if !args.quiet && (std::io::stderr().is_terminal() || estimate.elements >= 100_000) {
-        eprintln!("  estimate  {}", describe_estimate(&estimate));
+    let estimate = vkrad::app::run_estimate(&job, &scene);
+    if !args.quiet && (std::io::stderr().is_terminal() || estimate.mesh.elements >= 100_000) {
+        eprintln!("  estimate  {}", describe_run_estimate(&estimate));
     }
     // With --capture the device is made here, to ask it afterwards what
     // became of the capture (and to fail before any work without RenderDoc).

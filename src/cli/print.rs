@@ -2,24 +2,35 @@
 //! summary, mesher statistics, bench results and form-factor tables.
 
 use super::args::FormFactorArgs;
-use vkrad::app::Report;
+use vkrad::app::{Report, RunEstimate};
 use vkrad::bench::meshers::MesherReport;
 use vkrad::bench::BenchReport;
-use vkrad::mesh::build::{CostEstimate, MeshReport};
+use vkrad::mesh::build::MeshReport;
 use vkrad::mesh::Mesh;
 use vkrad::scene::Scene;
 use vkrad::solve::patch_matrix::{CheckedPatchFormFactors, EntrySource};
 use vkrad::solve::{FormFactorMethod, PatchFormFactors};
 
-/// "N elements, X MB host, Y MB GPU".
-pub(crate) fn describe_estimate(e: &CostEstimate) -> String {
+/// "about N elements solved, M shown; X MB of memory at the peak (the
+/// three largest parts)".
+pub(crate) fn describe_run_estimate(e: &RunEstimate) -> String {
     let mb = |b: u64| b as f64 / (1u64 << 20) as f64;
+    let mut parts = e.parts.clone();
+    parts.sort_by_key(|p| std::cmp::Reverse(p.bytes));
+    let largest: Vec<String> = parts
+        .iter()
+        .take(3)
+        .map(|p| format!("{} {:.0}", p.stage, mb(p.bytes)))
+        .collect();
     format!(
-        "{}{} elements, {:.0} MB of memory, {:.0} MB on the GPU",
-        if e.exact { "" } else { "about " },
-        e.elements,
-        mb(e.host_bytes),
-        mb(e.device_bytes)
+        "{}{} elements solved{}; {:.0} MB of memory at the peak ({} MB)",
+        if e.mesh.exact { "" } else { "about " },
+        e.mesh.elements,
+        e.display_elements
+            .map(|n| format!(", about {n} shown"))
+            .unwrap_or_default(),
+        mb(e.total_bytes()),
+        largest.join(", ")
     )
 }
 
@@ -51,7 +62,7 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     );
     println!(
         "  estimate  {} (before meshing)",
-        describe_estimate(&r.estimate)
+        describe_run_estimate(&r.memory)
     );
     print_mesh_report(&r.mesh_report);
     if r.adaptive_elements.len() > 1 {
@@ -123,6 +134,15 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         .map(|(name, secs)| format!("{name} {secs:.2}s"))
         .collect();
     println!("  wall      {}", stages.join(", "));
+    let peak = r.peak_memory.iter().map(|&(_, b)| b).max().unwrap_or(0);
+    if peak > 0 {
+        let mb = |b: u64| b as f64 / (1u64 << 20) as f64;
+        println!(
+            "  memory    peak {:.0} MB resident (estimated {:.0} MB)",
+            mb(peak),
+            mb(r.memory.total_bytes())
+        );
+    }
     let total = r.gpu_times.total().as_secs_f64();
     let source = if r.gpu_times.gpu {
         "GPU timestamps"

@@ -415,7 +415,7 @@ mod tests {
         let mut mesh = Mesh {
             vertices,
             elements,
-            patch_elements: vec![0..6],
+            patch_elements: std::iter::once(0..6).collect(),
         };
         let slack = crate::mesh::sanity::F32_SLACK * 90.0;
         let (cb, cd) = ((b - c).as_dvec3().normalize(), (d - c).as_dvec3());

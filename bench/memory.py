@@ -1,0 +1,130 @@
+#!/usr/bin/env python3
+"""Peak memory against vkrad's own estimate, on a corpus of scenes.
+
+Runs `vkrad SCENE --size 256x256 --report R.json` on every scene of the
+corpus, one at a time, and reads from each report the estimate vkrad made
+before any work (`memory.estimate_bytes`, with its parts) and the peak
+resident set the process reached (`memory.peak_bytes`, Linux VmHWM).
+Writes bench/memory.json and prints a Markdown table; exits 1 when a
+peak is above its estimate (the estimate is meant as an upper bound).
+
+    cargo build --release
+    python3 bench/memory.py                    # the whole corpus (about 10 min on 2 cores)
+    python3 bench/memory.py cornell rfield     # some of it, by name
+    python3 bench/memory.py --large            # add the 95k-polygon field (about 10 min more)
+
+The corpus: the built-in scenes, scenes/*.obj, the public scenes under
+../shared/scenes (when present), and generated letter fields from
+`scenes/generate_scenes.py --scaling` (made in a temporary folder).
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+SHARED = os.path.join(os.path.dirname(ROOT), "shared", "scenes")
+
+
+def corpus(scaling_dir, large):
+    scenes = [
+        ("cornell", "cornell"),
+        ("simple", "simple"),
+        ("r", "r"),
+        ("vise", "vise"),
+        ("rfield", "rfield"),
+        ("curved", os.path.join(ROOT, "scenes", "curved.obj")),
+        ("aliasing", os.path.join(ROOT, "scenes", "aliasing.obj")),
+        ("grazing", os.path.join(ROOT, "scenes", "grazing.obj")),
+        ("nearfield", os.path.join(ROOT, "scenes", "nearfield.obj")),
+        ("CornellBox-Original", os.path.join(SHARED, "mcguire", "CornellBox-Original.obj")),
+        ("CornellBox-Sphere", os.path.join(SHARED, "mcguire", "CornellBox-Sphere.obj")),
+        ("field-12", os.path.join(scaling_dir, "rfield-12.obj")),
+        ("field-50", os.path.join(scaling_dir, "rfield-50.obj")),
+    ]
+    if large:
+        scenes.append(("field-700", os.path.join(scaling_dir, "rfield-700.obj")))
+    return scenes
+
+
+def run(vkrad, name, scene, out_dir):
+    report = os.path.join(out_dir, f"{name}.json")
+    image = os.path.join(out_dir, f"{name}.exr")
+    t = time.time()
+    p = subprocess.run(
+        [vkrad, scene, "--size", "256x256", "-o", image, "--report", report, "--quiet"],
+        capture_output=True,
+        text=True,
+    )
+    wall = time.time() - t
+    if p.returncode != 0:
+        return {"scene": name, "error": (p.stderr or p.stdout).strip().splitlines()[-1:]}
+    r = json.load(open(report))
+    m = r["memory"]
+    return {
+        "scene": name,
+        "patches": r["scene"]["patches"],
+        "elements": r["mesh"]["elements"],
+        "display_elements": (r.get("display_mesh") or {}).get("elements"),
+        "estimated_display_elements": m["estimate_elements"]["display"],
+        "wall_s": round(wall, 2),
+        "peak_bytes": m["peak_bytes"],
+        "estimate_bytes": m["estimate_bytes"],
+        "estimate_parts": m["estimate_parts"],
+        "peak_bytes_after": m["peak_bytes_after"],
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("names", nargs="*", help="scenes of the corpus to run (default: all)")
+    ap.add_argument("--vkrad", default=os.path.join(ROOT, "target", "release", "vkrad"))
+    ap.add_argument("--large", action="store_true", help="add the 95,202-polygon field")
+    ap.add_argument("--out", default=os.path.join(HERE, "memory.json"))
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory(prefix="vkrad-memory-") as tmp:
+        scaling = os.path.join(tmp, "scaling")
+        subprocess.run(
+            [sys.executable, os.path.join(ROOT, "scenes", "generate_scenes.py"), "--scaling", scaling],
+            check=True,
+            capture_output=True,
+        )
+        rows = []
+        for name, scene in corpus(scaling, a.large):
+            if a.names and name not in a.names:
+                continue
+            if os.path.sep in scene and not os.path.exists(scene):
+                print(f"skipped {name}: {scene} not found", file=sys.stderr)
+                continue
+            row = run(a.vkrad, name, scene, tmp)
+            print(json.dumps({k: row.get(k) for k in ("scene", "wall_s", "peak_bytes", "estimate_bytes", "error")}), file=sys.stderr)
+            rows.append(row)
+    json.dump({"vkrad": a.vkrad, "size": "256x256", "runs": rows}, open(a.out, "w"), indent=1)
+    mb = lambda b: f"{b / 2**20:.0f}"
+    print("| scene | polygons | elements solved / shown (estimated shown) | wall | peak RSS | estimate | peak / estimate |")
+    print("|---|---|---|---|---|---|---|")
+    over = []
+    for r in rows:
+        if "error" in r:
+            print(f"| {r['scene']} | failed: {r['error']} |")
+            over.append(r["scene"])
+            continue
+        ratio = r["peak_bytes"] / r["estimate_bytes"]
+        if ratio > 1:
+            over.append(r["scene"])
+        print(
+            f"| {r['scene']} | {r['patches']:,} | {r['elements']:,} / {r['display_elements'] or 0:,} "
+            f"({r['estimated_display_elements'] or 0:,}) | {r['wall_s']:.1f} s | {mb(r['peak_bytes'])} MB "
+            f"| {mb(r['estimate_bytes'])} MB | {ratio:.2f} |"
+        )
+    if over:
+        print(f"over the estimate or failed: {', '.join(over)}", file=sys.stderr)
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()

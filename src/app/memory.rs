@@ -1,0 +1,334 @@
+//! Memory: what a run is estimated to need before it starts
+//! ([`RunEstimate`]), and what it took (the process's peak resident set
+//! after every stage, [`StageLog`]).
+//!
+//! The estimate adds what every stage that can grow holds at the peak: the
+//! solve's mesh and state, the discontinuity mesher's GPU visibility
+//! targets, the display mesh (its build, its junction repair, the gather's
+//! values and the render's copies), the gather's ray-tracing tree and the
+//! image. Device memory is counted as host memory: on a CPU device
+//! (lavapipe) it is. The per-item figures were measured on lavapipe
+//! (`python3 bench/memory.py` checks the peak against the estimate on
+//! every scene of the corpus) and rounded up.
+
+use crate::error::{Error, Result};
+use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
+use crate::mesh::{default_max_edge, element_count};
+use crate::render::samples_per_pixel;
+use crate::scene::Scene;
+
+/// The process, the Vulkan device and its pipelines, the hemicube's
+/// targets: 95-107 MB after the solve of every scene up to 12,544
+/// elements.
+const BASE_BYTES: u64 = 128 << 20;
+/// Per input polygon: the scene, its loader's transients, the shooting
+/// tree's leaves (18 MB at the load of 23,802 polygons).
+const SCENE_BYTES_PER_PATCH: u64 = 1024;
+/// Per scene triangle: the final gather's ray-tracing tree (BVH nodes,
+/// triangles, their patch ids).
+const TREE_BYTES_PER_TRIANGLE: u64 = 160;
+/// Per display element: its build (triangulations, junction repair's
+/// spatial hash), its vertices' gathered values and caches, and the
+/// render's vertex and colour copies (rfield: 477k elements took 93 MB to
+/// build and 145 MB more to render, 500 bytes each).
+const DISPLAY_BYTES_PER_ELEMENT: u64 = 512;
+/// A discontinuity display mesh's elements before it is built: at most
+/// this many times the uniform mesh at its edge, plus [`DISPLAY_PER_PATCH`]
+/// per polygon. Its shadow lines depend on what blocks what, which only
+/// the mesher finds out; over the corpus the display mesh had 1.2 to 24
+/// times the uniform count (24: a field of 12 letters, whose shadows
+/// cross a floor of few elements). An upper bound fitted on the corpus,
+/// not derived; the run checks again once the display mesh is built.
+const DISPLAY_PER_UNIFORM: u64 = 24;
+const DISPLAY_PER_PATCH: u64 = 16;
+/// Bytes per pixel sample (the render's colour and depth) and per pixel
+/// (the HDR image, its tone-mapped copy).
+const BYTES_PER_SAMPLE: u64 = 16;
+const BYTES_PER_PIXEL: u64 = 32;
+
+/// One stage's share of the estimate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EstimatePart {
+    pub stage: &'static str,
+    pub bytes: u64,
+}
+
+/// What a whole run is expected to hold at its peak, stage by stage.
+#[derive(Debug, Clone)]
+pub struct RunEstimate {
+    /// The solve's mesh (elements, and whether that count is exact).
+    pub mesh: CostEstimate,
+    /// The display mesh's elements, when one is built.
+    pub display_elements: Option<u64>,
+    pub parts: Vec<EstimatePart>,
+}
+
+/// What [`RunEstimate::new`] needs to know of the job.
+#[derive(Debug, Clone, Copy)]
+pub struct RunShape {
+    pub mesh: MeshSettings,
+    /// The display mesh asked for (`None`: no final gather).
+    pub display: Option<(Option<f32>, Option<Mesher>)>,
+    pub size: (u32, u32),
+}
+
+impl RunEstimate {
+    pub fn new(scene: &Scene, shape: &RunShape) -> Self {
+        let mesh = CostEstimate::new(scene, &shape.mesh);
+        let mut parts = vec![
+            EstimatePart {
+                stage: "base",
+                bytes: BASE_BYTES,
+            },
+            EstimatePart {
+                stage: "scene",
+                bytes: SCENE_BYTES_PER_PATCH * scene.patches.len() as u64,
+            },
+            EstimatePart {
+                stage: "mesh",
+                bytes: mesh.host_bytes.saturating_add(mesh.device_bytes),
+            },
+        ];
+        let display = shape
+            .display
+            .and_then(|(edge, mesher)| display_settings(scene, &shape.mesh, edge, mesher));
+        let uses_visibility = matches!(shape.mesh.mesher, Mesher::Discontinuity { .. })
+            || display.is_some_and(|d| matches!(d.mesher, Mesher::Discontinuity { .. }));
+        if uses_visibility {
+            parts.push(EstimatePart {
+                stage: "visibility",
+                bytes: visibility_bytes(scene, shape.mesh.dm_res),
+            });
+        }
+        let display_elements = display.map(|d| match d.mesher {
+            Mesher::Uniform => CostEstimate::new(scene, &d).elements,
+            Mesher::Discontinuity { .. } => {
+                DISPLAY_PER_UNIFORM * element_count(scene, d.max_edge)
+                    + DISPLAY_PER_PATCH * scene.patches.len() as u64
+            }
+        });
+        if shape.display.is_some() {
+            let triangles: u64 = scene
+                .patches
+                .iter()
+                .map(|p| p.vertices.len().saturating_sub(2) as u64)
+                .sum();
+            parts.push(EstimatePart {
+                stage: "gather",
+                bytes: TREE_BYTES_PER_TRIANGLE * triangles,
+            });
+        }
+        parts.push(EstimatePart {
+            stage: "display mesh",
+            bytes: DISPLAY_BYTES_PER_ELEMENT * display_elements.unwrap_or(mesh.elements),
+        });
+        let (w, h) = (u64::from(shape.size.0), u64::from(shape.size.1));
+        parts.push(EstimatePart {
+            stage: "render",
+            bytes: w
+                * h
+                * (BYTES_PER_PIXEL
+                    + BYTES_PER_SAMPLE * u64::from(samples_per_pixel(shape.size.0, shape.size.1))),
+        });
+        RunEstimate {
+            mesh,
+            display_elements,
+            parts,
+        }
+    }
+
+    /// The estimate once the display mesh is built with `elements`.
+    pub fn with_display(&self, elements: u64) -> Self {
+        let mut e = self.clone();
+        e.display_elements = Some(elements);
+        for p in &mut e.parts {
+            if p.stage == "display mesh" {
+                p.bytes = DISPLAY_BYTES_PER_ELEMENT * elements;
+            }
+        }
+        e
+    }
+
+    /// The peak the run is expected to stay under.
+    pub fn total_bytes(&self) -> u64 {
+        self.parts
+            .iter()
+            .fold(0u64, |t, p| t.saturating_add(p.bytes))
+    }
+
+    /// The largest part (the one to make smaller).
+    pub fn largest(&self) -> EstimatePart {
+        *self
+            .parts
+            .iter()
+            .max_by_key(|p| p.bytes)
+            .expect("an estimate has parts")
+    }
+
+    /// Refuses a run that would not fit in `available` bytes (the
+    /// system's available memory when `None` is not given), naming the
+    /// figure and the setting to change.
+    pub fn check(&self, available: Option<u64>) -> Result<()> {
+        let Some(available) = available.or_else(host_memory_available) else {
+            return Ok(());
+        };
+        let total = self.total_bytes();
+        if total <= available {
+            return Ok(());
+        }
+        let gb = |b: u64| b as f64 / (1u64 << 30) as f64;
+        let largest = self.largest();
+        let hint = match largest.stage {
+            "display mesh" => {
+                "use a larger --display-edge, --display-mesh uniform, or --no-final-gather"
+            }
+            "mesh" => "use a larger --max-edge (elements grow as 1 / max-edge^2)",
+            "visibility" => "use a smaller --dm-res",
+            "render" => "render a smaller --size",
+            _ => "free memory, or use a machine with more",
+        };
+        Err(Error::Invalid(format!(
+            "this run would need about {:.2} GB of memory ({} the largest part, {:.2} GB), more than the {:.2} GB available\n  hint: {hint}",
+            gb(total),
+            largest.stage,
+            gb(largest.bytes),
+            gb(available)
+        )))
+    }
+}
+
+/// The display mesh's settings, as `display::display_mesh` will choose
+/// them; `None` when the solve's mesh is shown.
+fn display_settings(
+    scene: &Scene,
+    solved: &MeshSettings,
+    edge: Option<f32>,
+    mesher: Option<Mesher>,
+) -> Option<MeshSettings> {
+    let edge = edge
+        .unwrap_or(0.5 * default_max_edge(scene))
+        .min(solved.max_edge);
+    let mesher = mesher.unwrap_or(solved.mesher);
+    (mesher != solved.mesher || edge < solved.max_edge).then_some(MeshSettings {
+        mesher,
+        max_edge: edge,
+        detail: ShadowDetail::Display(edge),
+        ..*solved
+    })
+}
+
+/// The discontinuity mesher's GPU visibility pass: item buffer and depth-
+/// stencil target (`gpu::visibility`: 32 x 32 tiles of `dm_res`, at most
+/// 8192 pixels a side), and a flag bit per polygon per tile.
+fn visibility_bytes(scene: &Scene, dm_res: u32) -> u64 {
+    let side = u64::from((32 * dm_res).min(8192));
+    let tiles = (side / u64::from(dm_res.max(1))).pow(2);
+    let flags = 4 * (scene.patches.len() as u64).div_ceil(32) * tiles;
+    side * side * 12 + flags
+}
+
+/// The process's peak resident set so far (Linux: `VmHWM` in
+/// /proc/self/status); `None` where the system does not say.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = text.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Wall time and peak memory at the end of every stage, in order.
+#[derive(Debug, Default, Clone)]
+pub struct StageLog {
+    pub wall: Vec<(&'static str, f64)>,
+    /// The process's peak resident set when the stage ended (0 where the
+    /// system does not say).
+    pub peak: Vec<(&'static str, u64)>,
+}
+
+impl StageLog {
+    /// A stage ended after `seconds`.
+    pub fn end(&mut self, name: &'static str, seconds: f64) {
+        self.wall.push((name, seconds));
+        self.peak.push((name, peak_resident_bytes().unwrap_or(0)));
+    }
+
+    /// The peak resident set over the whole run so far.
+    pub fn peak_bytes(&self) -> u64 {
+        self.peak.iter().map(|&(_, b)| b).max().unwrap_or(0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::testutil::{scene, unit_square};
+
+    fn shape(mesher: Mesher, display: Option<Mesher>) -> RunShape {
+        RunShape {
+            mesh: MeshSettings {
+                mesher,
+                max_edge: 0.25,
+                dm_res: 128,
+                detail: ShadowDetail::Full,
+            },
+            display: Some((None, display)),
+            size: (256, 256),
+        }
+    }
+
+    #[test]
+    fn a_run_that_would_not_fit_is_refused_with_its_figure_and_setting() {
+        let s = scene(&[&unit_square()]);
+        let e = RunEstimate::new(&s, &shape(Mesher::Uniform, None));
+        // No visibility pass for a uniform mesh shown as it is solved.
+        assert!(e.parts.iter().all(|p| p.stage != "visibility"));
+        assert!(e.total_bytes() > BASE_BYTES);
+        e.check(Some(e.total_bytes())).expect("fits exactly");
+        let err = e.check(Some(e.total_bytes() - 1)).unwrap_err().to_string();
+        assert!(
+            err.contains("GB of memory") && err.contains("hint:"),
+            "{err}"
+        );
+        // A discontinuity display mesh adds the visibility pass's targets
+        // (4096 x 4096 at --dm-res 128) and a bound on its shadow lines.
+        let d = RunEstimate::new(
+            &s,
+            &shape(
+                Mesher::Uniform,
+                Some(Mesher::Discontinuity { subdivide: true }),
+            ),
+        );
+        let vis = d.parts.iter().find(|p| p.stage == "visibility").unwrap();
+        assert!(vis.bytes >= 4096 * 4096 * 12);
+        let guess = d.display_elements.unwrap();
+        assert!(guess >= DISPLAY_PER_UNIFORM * element_count(&s, 0.125));
+        // Once built, its count replaces the guess.
+        let built = d.with_display(10);
+        assert_eq!(built.display_elements, Some(10));
+        assert!(built.total_bytes() < d.total_bytes());
+    }
+
+    #[test]
+    fn the_peak_covers_what_is_held() {
+        let Some(before) = peak_resident_bytes() else {
+            return; // not Linux
+        };
+        let held: Vec<u8> = vec![1; 64 << 20];
+        assert_eq!(held.iter().map(|&b| u64::from(b)).sum::<u64>(), 64 << 20);
+        // What is resident now (other tests may have peaked higher before).
+        let status = std::fs::read_to_string("/proc/self/status").unwrap();
+        let rss: u64 = status
+            .lines()
+            .find(|l| l.starts_with("VmRSS:"))
+            .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
+            .unwrap();
+        let after = peak_resident_bytes().unwrap();
+        assert!(rss * 1024 >= 64 << 20, "{rss} KiB resident");
+        assert!(after >= before.max(rss * 1024), "{before} -> {after}");
+        let mut log = StageLog::default();
+        log.end("a", 1.0);
+        assert!(log.peak_bytes() >= after);
+        drop(held);
+    }
+}
