@@ -14,6 +14,7 @@ use crate::gpu::{Device, DeviceOptions};
 use crate::mesh;
 use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
+use crate::mesh::progress::MeshMeter;
 use crate::output::image_io::save_image;
 use crate::output::tonemap::auto_exposure;
 use crate::render::{default_camera, export_lit_mesh, render_image};
@@ -312,7 +313,17 @@ pub fn run_scene(
     // has refused a mesh that alone would not).
     let memory = run_estimate(job, &scene);
     memory.check(None)?;
-    let (mesh, mesh_report) = builder.build(&[])?;
+    let mut on_update = on_progress;
+    let (mesh, mesh_report) = {
+        let mut tick = |done: usize, total: usize| {
+            on_update(&Update::Stage {
+                stage: "mesh",
+                done,
+                total,
+            })
+        };
+        builder.build_metered(&[], &mut MeshMeter::new(&mut tick))?
+    };
     if job.check_mesh {
         check_mesh(&mesh, &scene, job.mesher)?;
     }
@@ -326,7 +337,6 @@ pub fn run_scene(
     );
 
     let t = Instant::now();
-    let mut on_update = on_progress;
     let mut on_progress = |p: &Progress| on_update(&Update::Shot(p));
     // The final gather's Jacobi passes finish the light's bounces: the
     // solve may stop as much earlier (its stop rule counts them).
@@ -410,9 +420,32 @@ pub fn run_scene(
         mesher: job.display_mesher,
         check: job.check_mesh,
     };
+    let mut display_interrupted = false;
     let mut display = match &job.final_gather {
         Some(_) if job.adaptive == 0 && !solution.interrupted => {
-            display_mesh(&request, &scene, &device, &mut builder, &mut warnings)?
+            let mut tick = |done: usize, total: usize| {
+                on_update(&Update::Stage {
+                    stage: "display mesh",
+                    done,
+                    total,
+                })
+            };
+            let mut meter = MeshMeter::new(&mut tick);
+            match display_mesh(
+                &request,
+                &scene,
+                &device,
+                &mut builder,
+                &mut warnings,
+                &mut meter,
+            ) {
+                // Stopped: the image shows the solver's own values.
+                Err(Error::Interrupted(_)) => {
+                    display_interrupted = true;
+                    None
+                }
+                other => other?,
+            }
         }
         _ => None,
     };
@@ -430,7 +463,11 @@ pub fn run_scene(
         );
     }
     let t = Instant::now();
-    let mut interrupted = solution.interrupted.then_some("solve");
+    let mut interrupted = if display_interrupted {
+        Some("display mesh")
+    } else {
+        solution.interrupted.then_some("solve")
+    };
     // The solver's own vertex values: without a final gather, and when
     // one is interrupted before it has a value at every vertex.
     let solver_values = || {
@@ -585,7 +622,8 @@ pub fn run_scene(
         scene,
         mesh,
         display_mesh,
-        gathered: job.final_gather.is_some() && interrupted != Some("gather"),
+        gathered: job.final_gather.is_some()
+            && !matches!(interrupted, Some("gather" | "display mesh" | "solve")),
         vertex_radiosity: shown,
         max_edge,
         mesh_report,

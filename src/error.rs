@@ -77,6 +77,10 @@ pub enum Error {
     #[error("{0}")]
     Invalid(String),
 
+    /// The user stopped a stage that has nothing to show yet (Ctrl-C).
+    #[error("interrupted during {0}")]
+    Interrupted(&'static str),
+
     /// A mesh failed its sanity check (a defect of a mesher, not of the
     /// input): what is wrong, where.
     #[error("the mesh is not sound: {0}")]

@@ -25,6 +25,11 @@ fn main() -> ExitCode {
         // The partial result was written; the exit status still says so.
         Ok(()) if INTERRUPTED.load(Ordering::SeqCst) => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
+        // Stopped where there was nothing to write yet (the solve's mesh).
+        Err(e) if INTERRUPTED.load(Ordering::SeqCst) => {
+            eprintln!("\n{e:#}: nothing written");
+            ExitCode::from(130)
+        }
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE

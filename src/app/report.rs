@@ -55,9 +55,10 @@ pub struct Report {
     pub peak_memory: Vec<(&'static str, u64)>,
     /// GPU time per pass (timestamps) across solve and render.
     pub gpu_times: StageTimes,
-    /// The stage an interrupt stopped (`"solve"`, `"gather"`, `"display
-    /// refinement"`), or `None`. Interrupted in the gather, the image shows
-    /// the solver's own vertex values on the solved mesh.
+    /// The stage an interrupt stopped (`"solve"`, `"display mesh"`,
+    /// `"gather"`, `"display refinement"`), or `None`. Interrupted in the
+    /// display mesh or the gather, the image shows the solver's own vertex
+    /// values on the solved mesh.
     pub interrupted: Option<&'static str>,
     /// The Jacobi passes the final gather ran (at most the job's; fewer
     /// where the solve's residual needed fewer).

@@ -18,8 +18,9 @@ use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTER
 use vkrad::app::{run_scene, CameraOverride, Job};
 use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::mesh::build::{build_mesh, check_mesh, MeshSettings};
+use vkrad::mesh::build::{check_mesh, MeshBuilder, MeshSettings};
 use vkrad::mesh::discontinuity::ShadowDetail;
+use vkrad::mesh::progress::MeshMeter;
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
 use vkrad::solve::vertex_gather::VertexGather;
 use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
@@ -239,7 +240,23 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
         dm_res: args.mesh.dm_res,
         detail: ShadowDetail::Full,
     };
-    let (mesh, report) = build_mesh(&device, &scene, &settings)?;
+    // A large discontinuity mesh takes minutes: a progress line, and
+    // Ctrl-C stops it (nothing is written).
+    install_interrupt_handler();
+    let mut progress =
+        ProgressLine::new(std::io::stderr().is_terminal(), StopTarget::Residual(1.0));
+    let mut tick = |done: usize, total: usize| {
+        progress.update(&vkrad::app::Update::Stage {
+            stage: "mesh",
+            done,
+            total,
+        });
+        !INTERRUPTED.load(Ordering::SeqCst)
+    };
+    let built = MeshBuilder::new(&device, &scene, settings)
+        .and_then(|mut b| b.build_metered(&[], &mut MeshMeter::new(&mut tick)));
+    progress.clear();
+    let (mesh, report) = built?;
     check_mesh(&mesh, &scene, settings.mesher)?;
     device.check_validation()?;
     // Geometry only: the colour and radiosity fields are zero.

@@ -79,6 +79,9 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         );
     }
     match r.interrupted {
+        Some("display mesh") => println!(
+            "  PARTIAL   interrupted while the display mesh was built: the image shows the solver's own vertex values on the solved mesh"
+        ),
         Some("gather") => println!(
             "  PARTIAL   interrupted in the final gather: the image shows the solver's own vertex values on the solved mesh"
         ),

@@ -106,8 +106,14 @@ impl ProgressLine {
         } else {
             ("--".into(), "--".into())
         };
+        // The meshers count visibility pairs and patches, the rest points.
+        let unit = if stage.ends_with("mesh") {
+            "steps"
+        } else {
+            "points"
+        };
         eprint!(
-            "\r  [{}] {stage} {done:>9} / {total} points  {rate} points/s  ETA {eta}    ",
+            "\r  [{}] {stage} {done:>9} / {total} {unit}  {rate} {unit}/s  ETA {eta}    ",
             bar(done_share),
         );
     }

@@ -9,10 +9,11 @@ use glam::Vec3;
 
 use crate::error::{Error, Result};
 use crate::gpu::Device;
-use crate::mesh::discontinuity::visibility::{gpu_blockers, BlockerTable};
+use crate::mesh::discontinuity::visibility::{gpu_blockers_metered, BlockerTable};
 use crate::mesh::discontinuity::{
-    discontinuity_mesh, DiscontinuityOptions, DiscontinuityStats, ShadowDetail,
+    discontinuity_mesh_metered, DiscontinuityOptions, DiscontinuityStats, ShadowDetail,
 };
+use crate::mesh::progress::MeshMeter;
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
 
@@ -209,6 +210,15 @@ impl<'a> MeshBuilder<'a> {
     /// the final gather shades), its cost checked first; the blocker table
     /// is reused.
     pub fn build_finer(&mut self, max_edge: f32) -> Result<(Mesh, MeshReport)> {
+        self.build_finer_metered(max_edge, &mut MeshMeter::silent())
+    }
+
+    /// [`Self::build_finer`], counted on `meter` (see [`Self::build_metered`]).
+    pub fn build_finer_metered(
+        &mut self,
+        max_edge: f32,
+        meter: &mut MeshMeter,
+    ) -> Result<(Mesh, MeshReport)> {
         let settings = MeshSettings {
             max_edge,
             ..self.settings
@@ -219,13 +229,24 @@ impl<'a> MeshBuilder<'a> {
             max_edge,
         )?;
         let saved = std::mem::replace(&mut self.settings, settings);
-        let built = self.build(&[]);
+        let built = self.build_metered(&[], meter);
         self.settings = saved;
         built
     }
 
     /// A mesh with `extra_points` inserted (discontinuity mesher only).
     pub fn build(&mut self, extra_points: &[(u32, Vec3)]) -> Result<(Mesh, MeshReport)> {
+        self.build_metered(extra_points, &mut MeshMeter::silent())
+    }
+
+    /// [`Self::build`], counting the discontinuity mesher's visibility
+    /// pairs and patches on `meter` (a uniform mesh is built at once);
+    /// `Err(Interrupted)` when the meter's watcher stops it.
+    pub fn build_metered(
+        &mut self,
+        extra_points: &[(u32, Vec3)],
+        meter: &mut MeshMeter,
+    ) -> Result<(Mesh, MeshReport)> {
         let (scene, settings) = (self.scene, self.settings);
         let mut report = MeshReport::default();
         let mesh = match settings.mesher {
@@ -236,9 +257,18 @@ impl<'a> MeshBuilder<'a> {
                 mesh
             }
             Mesher::Discontinuity { subdivide } => {
+                // Both passes over the patches are planned from the start,
+                // so the total counts them while the visibility runs.
+                meter.plan(2 * scene.patches.len());
                 if self.table.is_none() {
                     let t = Instant::now();
-                    let table = gpu_blockers(self.device, scene, settings.dm_res, settings.detail)?;
+                    let table = gpu_blockers_metered(
+                        self.device,
+                        scene,
+                        settings.dm_res,
+                        settings.detail,
+                        meter,
+                    )?;
                     let total = t.elapsed();
                     report.stages.push(("shaft culling", table.culling_time));
                     report
@@ -261,7 +291,7 @@ impl<'a> MeshBuilder<'a> {
                     ..Default::default()
                 };
                 let oracle = |e: usize, k: usize, t: usize| table.get(e, k, t);
-                let (mesh, stats) = discontinuity_mesh(scene, &oracle, &options)?;
+                let (mesh, stats) = discontinuity_mesh_metered(scene, &oracle, &options, meter)?;
                 report.stages.push(("projection", stats.projection_time));
                 report.stages.push(("arrangement", stats.arrangement_time));
                 report.stages.push(("CDT", stats.cdt_time));

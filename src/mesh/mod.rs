@@ -9,6 +9,7 @@ use crate::scene::{Scene, ELEMENT_SAMPLING};
 pub mod build;
 pub mod discontinuity;
 mod junction;
+pub mod progress;
 mod sanity;
 pub mod smooth;
 mod split;

@@ -31,6 +31,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec2;
 
+use super::progress::MeshMeter;
 use super::sanity::{patch_size, shared_edges};
 use super::{remove_t_junctions, Mesh};
 use crate::error::{Error, Result};
@@ -194,6 +195,17 @@ pub fn discontinuity_mesh(
     blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
     options: &DiscontinuityOptions,
 ) -> Result<(Mesh, DiscontinuityStats)> {
+    discontinuity_mesh_metered(scene, blockers, options, &mut MeshMeter::silent())
+}
+
+/// [`discontinuity_mesh`], counting each patch's two passes on `meter`
+/// (which has them planned: two per patch).
+pub fn discontinuity_mesh_metered(
+    scene: &Scene,
+    blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,
+    options: &DiscontinuityOptions,
+    meter: &mut MeshMeter,
+) -> Result<(Mesh, DiscontinuityStats)> {
     if let Some(m) = options.max_edge {
         if !(m > 0.0 && m.is_finite()) {
             return Err(Error::Invalid(format!(
@@ -241,6 +253,7 @@ pub fn discontinuity_mesh(
     let mut arrangements: Vec<Option<Arrangement>> = Vec::with_capacity(patches.len());
     let mut segments: Vec<(DVec2, DVec2)> = Vec::new();
     for (t, frame) in frames.iter().enumerate() {
+        meter.add(1)?;
         let Some(frame) = frame else {
             arrangements.push(None);
             continue;
@@ -296,6 +309,7 @@ pub fn discontinuity_mesh(
         patch_elements: Vec::with_capacity(patches.len()),
     };
     for (p, patch) in patches.iter().enumerate() {
+        meter.add(1)?;
         let first = mesh.elements.len() as u32;
         let start = Instant::now();
         match (&frames[p], &arrangements[p]) {

@@ -18,6 +18,7 @@ use crate::geom::tangent_frame;
 use crate::gpu::item::ItemVertex;
 use crate::gpu::visibility::{VisibilityPass, VisibilityTile};
 use crate::gpu::{Device, StageTimes};
+use crate::mesh::progress::MeshMeter;
 use crate::scene::Scene;
 use crate::trace::{self, TracedMap};
 
@@ -141,6 +142,17 @@ pub fn gpu_blockers(
     tile_res: u32,
     detail: ShadowDetail,
 ) -> Result<BlockerTable> {
+    gpu_blockers_metered(device, scene, tile_res, detail, &mut MeshMeter::silent())
+}
+
+/// [`gpu_blockers`], counting every light-target pair on `meter`.
+pub fn gpu_blockers_metered(
+    device: &Arc<Device>,
+    scene: &Scene,
+    tile_res: u32,
+    detail: ShadowDetail,
+    meter: &mut MeshMeter,
+) -> Result<BlockerTable> {
     let start = Instant::now();
     let receivers = detail.receivers(scene);
     let tiler = Tiler::new(scene);
@@ -162,7 +174,8 @@ pub fn gpu_blockers(
         }
     }
     table.culling_time += start.elapsed();
-    tiler.run(device, &mut pass, &mut table, &pairs, tile_res)?;
+    meter.plan(pairs.len());
+    tiler.run(device, &mut pass, &mut table, &pairs, tile_res, meter)?;
 
     // Edge-vertex events take their blockers from the whole emitter edge.
     // A blocker can be hidden from both ends of an edge yet seen from its
@@ -186,7 +199,8 @@ pub fn gpu_blockers(
         }
     }
     table.culling_time += start.elapsed();
-    tiler.run(device, &mut pass, &mut table, &pairs, tile_res)?;
+    meter.plan(pairs.len());
+    tiler.run(device, &mut pass, &mut table, &pairs, tile_res, meter)?;
     if let Some(pass) = pass {
         table.times = pass.times.clone();
     }
@@ -258,6 +272,7 @@ impl<'a> Tiler<'a> {
         table: &mut BlockerTable,
         pairs: &[Pair],
         tile_res: u32,
+        meter: &mut MeshMeter,
     ) -> Result<()> {
         let (mut keys, mut tiles, mut indices) = (Vec::new(), Vec::new(), Vec::new());
         for chunk in pairs.chunks(QUERY_CHUNK) {
@@ -315,6 +330,7 @@ impl<'a> Tiler<'a> {
                     tile_res,
                 )?;
             }
+            meter.add(chunk.len())?;
         }
         self.flush(
             device,

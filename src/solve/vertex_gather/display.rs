@@ -11,6 +11,7 @@ use crate::error::{Error, Result};
 use crate::gpu::Device;
 use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
+use crate::mesh::progress::MeshMeter;
 use crate::mesh::{self, Mesh};
 use crate::scene::Scene;
 
@@ -46,6 +47,7 @@ pub fn display_mesh(
     device: &Arc<Device>,
     builder: &mut MeshBuilder,
     warnings: &mut Vec<String>,
+    meter: &mut MeshMeter,
 ) -> Result<Option<DisplayMesh>> {
     let solved = *builder.settings();
     // Half the scene's default edge: finer than a default solve, and no
@@ -59,9 +61,9 @@ pub fn display_mesh(
     if mesher == solved.mesher && edge >= solved.max_edge {
         return Ok(None);
     }
-    let build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
+    let mut build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
         let mesh = if mesher == solved.mesher {
-            builder.build_finer(edge)?.0
+            builder.build_finer_metered(edge, meter)?.0
         } else {
             // Shadow lines only where the image shows them (see
             // `ShadowDetail::Display`).
@@ -71,7 +73,9 @@ pub fn display_mesh(
                 detail: ShadowDetail::Display(edge),
                 ..solved
             };
-            MeshBuilder::new(device, scene, settings)?.build(&[])?.0
+            MeshBuilder::new(device, scene, settings)?
+                .build_metered(&[], meter)?
+                .0
         };
         if request.check {
             check_mesh(&mesh, scene, mesher)?;
