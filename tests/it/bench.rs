@@ -9,11 +9,8 @@ use std::path::PathBuf;
 use vkrad::bench::meshers::{run_mesher_bench, DEFAULT, SERIES};
 use vkrad::bench::{run_bench_on, BenchOptions, BenchPoint, BenchReport, Sweep};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vkrad-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("{name}"))
 }
 
 fn sweep<'a>(report: &'a BenchReport, scene: &str, method: Sweep) -> Vec<&'a BenchPoint> {
@@ -30,7 +27,7 @@ fn quick_bench_writes_everything_and_errors_fall() {
     let out = temp_dir("bench");
     let options = BenchOptions {
         quick: true,
-        out_dir: out.clone(),
+        out_dir: out.to_path_buf(),
         ..BenchOptions::default()
     };
     let mut lines = Vec::new();

@@ -2,7 +2,7 @@
 //! ends with a clear message (file and line where there is one), a non-zero
 //! exit, no panic and no output file.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn vkrad(args: &[&str], dir: &Path) -> Output {
@@ -13,10 +13,10 @@ fn vkrad(args: &[&str], dir: &Path) -> Output {
         .expect("run vkrad")
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vkrad-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+use crate::common;
+
+fn temp_dir(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("cli-{name}"))
 }
 
 fn stderr(o: &Output) -> String {

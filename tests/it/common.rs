@@ -107,3 +107,36 @@ pub fn closed_cube(s: f32, floor_material: usize, material: usize) -> Vec<Patch>
         .map(|(i, f)| polygon(f, if i == 0 { floor_material } else { material }))
         .collect()
 }
+
+/// A fresh folder under the system's temporary folder, named for the test
+/// (`vkrad-NAME-PID`), removed when dropped: a test that fails leaves its
+/// files for a look only while it runs, and a passing suite leaves none.
+pub struct Scratch(std::path::PathBuf);
+
+impl Scratch {
+    pub fn new(name: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("vkrad-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("a temporary folder");
+        Scratch(dir)
+    }
+}
+
+impl std::ops::Deref for Scratch {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl AsRef<std::path::Path> for Scratch {
+    fn as_ref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}

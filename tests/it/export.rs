@@ -2,18 +2,17 @@
 //! parsed back here by hand, from the spec's layout: header, chunks, JSON,
 //! accessors against buffer views against the buffer, and the values.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use serde_json::Value;
 use vkrad::output::export_mesh;
 use vkrad::output::tonemap::linear_to_srgb8;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vkrad-export-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+use crate::common;
+
+fn temp_dir(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("export-{name}"))
 }
 
 fn u32_at(bytes: &[u8], at: usize) -> u32 {

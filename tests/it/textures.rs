@@ -15,11 +15,8 @@ use vkrad::solve::{solve, SolveSettings};
 
 use crate::common;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vkrad-tex-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("tex-{name}"))
 }
 
 /// A `w` x `h` PNG whose texel (x, y) (y from the top) is `colour(x, y)`.

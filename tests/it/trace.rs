@@ -6,7 +6,7 @@
 //! with tracing and profiling off nothing is written for them.
 
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 use std::sync::Arc;
 
@@ -16,7 +16,7 @@ use vkrad::gpu::instrument::Counters;
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::trace::{cat, Trace, GPU_TID};
 
-use crate::common::assert_validation_clean;
+use crate::common::{self, assert_validation_clean};
 
 fn device_with(trace: Option<Arc<Trace>>, profile: bool) -> Arc<Device> {
     let device = Device::new(&DeviceOptions {
@@ -33,10 +33,8 @@ fn device_with(trace: Option<Arc<Trace>>, profile: bool) -> Arc<Device> {
     device
 }
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vkrad-trace-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn temp_dir(name: &str) -> common::Scratch {
+    common::Scratch::new(&format!("trace-{name}"))
 }
 
 /// A small whole job: the `simple` scene, gathered, a small image.
