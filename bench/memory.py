@@ -72,6 +72,13 @@ def run(vkrad, name, scene, out_dir):
         "display_elements": (r.get("display_mesh") or {}).get("elements"),
         "estimated_display_elements": m["estimate_elements"]["display"],
         "wall_s": round(wall, 2),
+        "gather_s": r["timing"]["wall_s"].get("gather"),
+        "display_vertices": (r.get("display_mesh") or {}).get("vertices"),
+        "gather_passes": r.get("gather_passes"),
+        # Points the gather shaded: its passes over the element centres,
+        # then the display vertices (refinement points not counted).
+        "gather_points": (r.get("gather_passes") or 0) * r["mesh"]["elements"]
+        + ((r.get("display_mesh") or {}).get("vertices") or r["mesh"]["vertices"]),
         "peak_bytes": m["peak_bytes"],
         "estimate_bytes": m["estimate_bytes"],
         "estimate_parts": m["estimate_parts"],
