@@ -10,7 +10,7 @@ use vkrad::bench::meshers::{run_mesher_bench, DEFAULT, SERIES};
 use vkrad::bench::{run_bench_on, BenchOptions, BenchPoint, BenchReport, Sweep};
 
 fn temp_dir(name: &str) -> common::Scratch {
-    common::Scratch::new(&format!("{name}"))
+    common::Scratch::new(name)
 }
 
 fn sweep<'a>(report: &'a BenchReport, scene: &str, method: Sweep) -> Vec<&'a BenchPoint> {
