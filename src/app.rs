@@ -312,7 +312,7 @@ pub fn run_scene(
     // Refuse what would not fit before any of it is built (the builder
     // has refused a mesh that alone would not).
     let memory = run_estimate(job, &scene);
-    memory.check(None)?;
+    memory.check_before_work(None)?;
     let mut on_update = on_progress;
     let (mesh, mesh_report) = {
         let mut tick = |done: usize, total: usize| {

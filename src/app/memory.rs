@@ -59,8 +59,12 @@ pub struct EstimatePart {
 pub struct RunEstimate {
     /// The solve's mesh (elements, and whether that count is exact).
     pub mesh: CostEstimate,
-    /// The display mesh's elements, when one is built.
+    /// The display mesh's elements, when one is built: the bound the
+    /// estimate adds up (see [`DISPLAY_PER_UNIFORM`]).
     pub display_elements: Option<u64>,
+    /// ... and the fewest it is expected to have (the uniform mesh at its
+    /// edge), which [`RunEstimate::check_before_work`] holds the run to.
+    pub display_floor: Option<u64>,
     pub parts: Vec<EstimatePart>,
 }
 
@@ -108,6 +112,7 @@ impl RunEstimate {
                     + DISPLAY_PER_PATCH * scene.patches.len() as u64
             }
         });
+        let display_floor = display.map(|d| element_count(scene, d.max_edge));
         if shape.display.is_some() {
             let triangles: u64 = scene
                 .patches
@@ -134,7 +139,20 @@ impl RunEstimate {
         RunEstimate {
             mesh,
             display_elements,
+            display_floor,
             parts,
+        }
+    }
+
+    /// Refuses, before any work, a run that would not fit even with the
+    /// fewest display elements it can have: the bound on a discontinuity
+    /// display mesh is loose (up to 20 times its count on the corpus), so
+    /// it would refuse runs that fit; the run is checked again, on the
+    /// real count, once the display mesh is built.
+    pub fn check_before_work(&self, available: Option<u64>) -> Result<()> {
+        match self.display_floor {
+            Some(floor) => self.with_display(floor).check(available),
+            None => self.check(available),
         }
     }
 
@@ -303,6 +321,11 @@ mod tests {
         assert!(vis.bytes >= 4096 * 4096 * 12);
         let guess = d.display_elements.unwrap();
         assert!(guess >= DISPLAY_PER_UNIFORM * element_count(&s, 0.125));
+        // Before the work only the fewest display elements must fit.
+        let floor = d.with_display(d.display_floor.unwrap()).total_bytes();
+        assert!(floor < d.total_bytes());
+        d.check_before_work(Some(floor)).expect("the floor fits");
+        assert!(d.check(Some(floor)).is_err(), "the bound does not");
         // Once built, its count replaces the guess.
         let built = d.with_display(10);
         assert_eq!(built.display_elements, Some(10));
