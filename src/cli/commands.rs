@@ -51,18 +51,25 @@ pub(crate) fn devices() -> Result<()> {
 }
 
 pub(crate) fn render(args: RenderArgs) -> Result<()> {
-    let scene = args.scene.clone().context("a scene is required")?;
-    let mut job = Job::new(scene);
-    job.output = args.output.clone();
-    job.export = args.export.clone();
     if let Some(path) = &args.trace {
         vkrad::app::check_output_path(path, &["json"])?;
     }
     // The trace's clock starts before anything it shows.
     let trace = args.trace.as_ref().map(|_| Arc::new(Trace::new()));
+    let job = job_from(&args, trace.clone())?;
+    render_job(args, job, trace)
+}
+
+/// The job `vkrad ARGS` asks for: [`Job::new`] with what the arguments
+/// override (at their defaults, nothing: `vkrad SCENE` runs `Job::new`).
+pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<Job> {
+    let scene = args.scene.clone().context("a scene is required")?;
+    let mut job = Job::new(scene);
+    job.output = args.output.clone();
+    job.export = args.export.clone();
     job.device = DeviceOptions {
         profile: args.profile,
-        trace: trace.clone(),
+        trace,
         capture: args.capture,
         ..args.gpu.options()
     };
@@ -109,7 +116,11 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
     };
     job.size = args.size;
     job.exposure = args.exposure;
+    Ok(job)
+}
 
+/// Runs `job` as `vkrad ARGS` does: progress line, report, trace, summary.
+fn render_job(args: RenderArgs, job: Job, trace: Option<Arc<Trace>>) -> Result<()> {
     if let Some(report) = &args.report {
         vkrad::app::check_output_path(report, &["json"])?;
     }
@@ -323,4 +334,28 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     }
     print_form_factors(&scene, &mesh, &output, &args, method, max_edge)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+    use crate::cli::args::Cli;
+
+    /// `vkrad SCENE` runs exactly `Job::new(SCENE)`: the library's defaults
+    /// are the command's, and the CLI only overrides them.
+    #[test]
+    fn vkrad_scene_runs_the_library_s_default_job() {
+        for scene in ["cornell", "scenes/curved.obj"] {
+            let cli = Cli::parse_from(["vkrad", scene]);
+            let job = job_from(&cli.render, None).unwrap();
+            assert_eq!(format!("{job:#?}"), format!("{:#?}", Job::new(scene)));
+        }
+        // An option does override.
+        let cli = Cli::parse_from(["vkrad", "cornell", "--display-refinements", "0"]);
+        let job = job_from(&cli.render, None).unwrap();
+        assert_eq!(job.display_refinements, 0);
+        assert_ne!(format!("{job:?}"), format!("{:?}", Job::new("cornell")));
+    }
 }
