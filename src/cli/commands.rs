@@ -281,6 +281,12 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
         mesh.vertices.len()
     );
     print_mesh_report(&report);
+    if let Some(peak) = vkrad::app::peak_resident_bytes() {
+        println!(
+            "  memory    peak {:.0} MB resident",
+            peak as f64 / f64::from(1 << 20)
+        );
+    }
     println!("wrote {}", args.output.display());
     Ok(())
 }
