@@ -12,7 +12,7 @@ use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
 use crate::gpu::{Device, DeviceOptions};
 use crate::mesh;
-use crate::mesh::build::{check_mesh, CostEstimate, MeshBuilder, MeshSettings, Mesher};
+use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::progress::MeshMeter;
 use crate::output::image_io::save_image;
@@ -246,17 +246,20 @@ pub fn mesh_settings(job: &Job, scene: &Scene) -> MeshSettings {
     }
 }
 
-/// What the job's mesh will cost, before any of it is built.
-pub fn estimate(job: &Job, scene: &Scene) -> CostEstimate {
-    CostEstimate::new(scene, &mesh_settings(job, scene))
+/// The display mesh the job asks for.
+fn display_request(job: &Job) -> DisplayRequest {
+    DisplayRequest {
+        edge: job.display_edge,
+        mesher: job.display_mesher,
+        check: job.check_mesh,
+    }
 }
 
 /// What the whole job will hold at its peak, before any of it is built.
 pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
     let shape = RunShape {
         mesh: mesh_settings(job, scene),
-        display: (job.final_gather.is_some() && job.adaptive == 0)
-            .then_some((job.display_edge, job.display_mesher)),
+        display: (job.final_gather.is_some() && job.adaptive == 0).then_some(display_request(job)),
         size: job.size,
     };
     RunEstimate::new(scene, &shape)
@@ -307,7 +310,6 @@ pub fn run_scene(
     let t = Instant::now();
     let settings = mesh_settings(job, &scene);
     let max_edge = settings.max_edge;
-    let cost = CostEstimate::new(&scene, &settings);
     let mut builder = MeshBuilder::new(&device, &scene, settings)?;
     // Refuse what would not fit before any of it is built (the builder
     // has refused a mesh that alone would not).
@@ -415,11 +417,7 @@ pub fn run_scene(
             total: 0,
         });
     }
-    let request = DisplayRequest {
-        edge: job.display_edge,
-        mesher: job.display_mesher,
-        check: job.check_mesh,
-    };
+    let request = display_request(job);
     let mut display_interrupted = false;
     let mut display = match &job.final_gather {
         Some(_) if job.adaptive == 0 && !solution.interrupted => {
@@ -627,7 +625,6 @@ pub fn run_scene(
         vertex_radiosity: shown,
         max_edge,
         mesh_report,
-        estimate: cost,
         memory,
         adaptive_elements: history.elements,
         adaptive_errors: history.errors,

@@ -13,10 +13,10 @@
 
 use crate::error::{Error, Result};
 use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
-use crate::mesh::discontinuity::ShadowDetail;
-use crate::mesh::{default_max_edge, element_count};
+use crate::mesh::element_count;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
+use crate::solve::vertex_gather::display::DisplayRequest;
 
 /// The process, the Vulkan device and its pipelines, the hemicube's
 /// targets: 95-107 MB after the solve of every scene up to 12,544
@@ -73,7 +73,7 @@ pub struct RunEstimate {
 pub struct RunShape {
     pub mesh: MeshSettings,
     /// The display mesh asked for (`None`: no final gather).
-    pub display: Option<(Option<f32>, Option<Mesher>)>,
+    pub display: Option<DisplayRequest>,
     pub size: (u32, u32),
 }
 
@@ -94,25 +94,27 @@ impl RunEstimate {
                 bytes: mesh.host_bytes.saturating_add(mesh.device_bytes),
             },
         ];
-        let display = shape
-            .display
-            .and_then(|(edge, mesher)| display_settings(scene, &shape.mesh, edge, mesher));
+        let display = shape.display.and_then(|r| r.choice(scene, &shape.mesh));
         let uses_visibility = matches!(shape.mesh.mesher, Mesher::Discontinuity { .. })
-            || display.is_some_and(|d| matches!(d.mesher, Mesher::Discontinuity { .. }));
+            || display.is_some_and(|(m, _)| matches!(m, Mesher::Discontinuity { .. }));
         if uses_visibility {
             parts.push(EstimatePart {
                 stage: "visibility",
                 bytes: visibility_bytes(scene, shape.mesh.dm_res),
             });
         }
-        let display_elements = display.map(|d| match d.mesher {
-            Mesher::Uniform => CostEstimate::new(scene, &d).elements,
-            Mesher::Discontinuity { .. } => {
-                DISPLAY_PER_UNIFORM * element_count(scene, d.max_edge)
-                    + DISPLAY_PER_PATCH * scene.patches.len() as u64
-            }
-        });
-        let display_floor = display.map(|d| element_count(scene, d.max_edge));
+        // The uniform mesh at the display edge: what a uniform display mesh
+        // is, and the fewest elements a discontinuity one has.
+        let display_floor = display.map(|(_, edge)| element_count(scene, edge));
+        let display_elements =
+            display
+                .zip(display_floor)
+                .map(|((mesher, _), floor)| match mesher {
+                    Mesher::Uniform => floor,
+                    Mesher::Discontinuity { .. } => {
+                        DISPLAY_PER_UNIFORM * floor + DISPLAY_PER_PATCH * scene.patches.len() as u64
+                    }
+                });
         if shape.display.is_some() {
             let triangles: u64 = scene
                 .patches
@@ -216,26 +218,6 @@ impl RunEstimate {
     }
 }
 
-/// The display mesh's settings, as `display::display_mesh` will choose
-/// them; `None` when the solve's mesh is shown.
-fn display_settings(
-    scene: &Scene,
-    solved: &MeshSettings,
-    edge: Option<f32>,
-    mesher: Option<Mesher>,
-) -> Option<MeshSettings> {
-    let edge = edge
-        .unwrap_or(0.5 * default_max_edge(scene))
-        .min(solved.max_edge);
-    let mesher = mesher.unwrap_or(solved.mesher);
-    (mesher != solved.mesher || edge < solved.max_edge).then_some(MeshSettings {
-        mesher,
-        max_edge: edge,
-        detail: ShadowDetail::Display(edge),
-        ..*solved
-    })
-}
-
 /// The discontinuity mesher's GPU visibility pass: item buffer and depth-
 /// stencil target (`gpu::visibility`: 32 x 32 tiles of `dm_res`, at most
 /// 8192 pixels a side), and a flag bit per polygon per tile.
@@ -288,9 +270,13 @@ mod tests {
                 mesher,
                 max_edge: 0.25,
                 dm_res: 128,
-                detail: ShadowDetail::Full,
+                detail: crate::mesh::discontinuity::ShadowDetail::Full,
             },
-            display: Some((None, display)),
+            display: Some(DisplayRequest {
+                edge: None,
+                mesher: display,
+                check: false,
+            }),
             size: (256, 256),
         }
     }

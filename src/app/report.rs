@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use super::Job;
 use crate::error::{Error, Result};
 use crate::gpu::StageTimes;
-use crate::mesh::build::{CostEstimate, MeshReport};
+use crate::mesh::build::MeshReport;
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::Scene;
@@ -28,9 +28,8 @@ pub struct Report {
     pub vertex_radiosity: Vec<[f32; 3]>,
     pub max_edge: f32,
     pub mesh_report: MeshReport,
-    /// What the mesh was estimated to cost before it was built.
-    pub estimate: CostEstimate,
-    /// What the whole run was estimated to hold at its peak.
+    /// What the whole run was estimated to hold at its peak (the mesh's
+    /// own estimate in `memory.mesh`).
     pub memory: super::RunEstimate,
     /// Element counts of every mesh solved (more than one with --adaptive).
     pub adaptive_elements: Vec<usize>,
@@ -129,7 +128,7 @@ impl Report {
             "memory": {
                 "estimate_bytes": self.memory.total_bytes(),
                 "estimate_parts": self.memory.parts.iter().map(|p| (p.stage.to_string(), serde_json::json!(p.bytes))).collect::<serde_json::Map<_, _>>(),
-                "estimate_elements": { "solved": self.estimate.elements, "exact": self.estimate.exact, "display": self.memory.display_elements },
+                "estimate_elements": { "solved": self.memory.mesh.elements, "exact": self.memory.mesh.exact, "display": self.memory.display_elements },
                 "peak_bytes": self.peak_memory.iter().map(|&(_, b)| b).max(),
                 "peak_bytes_after": self.peak_memory.iter().map(|&(stage, b)| (stage.to_string(), serde_json::json!(b))).collect::<serde_json::Map<_, _>>(),
             },

@@ -29,6 +29,23 @@ pub struct DisplayRequest {
     pub check: bool,
 }
 
+impl DisplayRequest {
+    /// The display mesh's mesher and maximum edge over a solve meshed with
+    /// `solved`; `None` when the solve's own mesh is shown (a coarser mesh
+    /// for the display is never built).
+    pub fn choice(&self, scene: &Scene, solved: &MeshSettings) -> Option<(Mesher, f32)> {
+        // Half the scene's default edge: finer than a default solve, and
+        // no finer than a solve the user made finer (its cost grows with
+        // the display vertices).
+        let edge = self
+            .edge
+            .unwrap_or(0.5 * mesh::default_max_edge(scene))
+            .min(solved.max_edge);
+        let mesher = self.mesher.unwrap_or(solved.mesher);
+        (mesher != solved.mesher || edge < solved.max_edge).then_some((mesher, edge))
+    }
+}
+
 /// The display mesh, its mesher and its maximum edge.
 pub struct DisplayMesh {
     pub mesh: Mesh,
@@ -50,17 +67,9 @@ pub fn display_mesh(
     meter: &mut MeshMeter,
 ) -> Result<Option<DisplayMesh>> {
     let solved = *builder.settings();
-    // Half the scene's default edge: finer than a default solve, and no
-    // finer than a solve the user made finer (its cost grows with the
-    // display vertices).
-    let edge = request
-        .edge
-        .unwrap_or(0.5 * mesh::default_max_edge(scene))
-        .min(solved.max_edge);
-    let mesher = request.mesher.unwrap_or(solved.mesher);
-    if mesher == solved.mesher && edge >= solved.max_edge {
+    let Some((mesher, edge)) = request.choice(scene, &solved) else {
         return Ok(None);
-    }
+    };
     let mut build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
         let mesh = if mesher == solved.mesher {
             builder.build_finer_metered(edge, meter)?.0
