@@ -22,6 +22,7 @@ ROOT = os.path.dirname(HERE)
 PT = os.path.join(HERE, "pathtracer")
 sys.path.insert(0, PT)
 import compare  # noqa: E402
+from score import score  # noqa: E402
 
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "scenes", "mcguire")
 BOX_CAMERA = ["--eye", "0,1,3.6", "--look-at", "0,1,0", "--fov", "40"]
@@ -39,18 +40,6 @@ GALLERY = [
 SIZE = "256x256"
 
 
-def score(name, image):
-    ref_path = os.path.join(PT, "out", f"{name}-ref.exr")
-    masks_path = os.path.join(PT, "out", f"{name}-{SIZE}-masks-v2.npz")
-    if not (os.path.exists(ref_path) and os.path.exists(masks_path)):
-        return None
-    ref = compare.read_exr(ref_path)
-    z = compare.np.load(masks_path)
-    lum = ref.mean(axis=2)
-    lit = (lum > 0.01 * lum.mean()) & ~z["sees_emitter"]
-    return compare.errors(compare.read_exr(image), ref, {"lit": lit})
-
-
 def main():
     compare.set_variant("scalar_rgb")
     vkrad = os.path.join(ROOT, "target", "release", "vkrad")
@@ -64,7 +53,7 @@ def main():
             subprocess.run(cmd, check=True)
             wall = time.time() - t
             r = json.load(open(report))
-            err = score(name, image)
+            err = score(name, image, SIZE)
             shown = " ".join(
                 ["vkrad", scene if os.path.sep not in scene else os.path.relpath(scene, ROOT), "--size", SIZE, *extra]
             )
