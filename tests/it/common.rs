@@ -69,6 +69,20 @@ pub fn scene(patches: Vec<Patch>, materials: Vec<Material>) -> Scene {
     }
 }
 
+/// The square [-half, half]^2 at y = 0, facing up (+y).
+pub fn floor(half: f32, material: usize) -> Patch {
+    let h = half;
+    polygon(
+        &[
+            Vec3::new(-h, 0.0, -h),
+            Vec3::new(-h, 0.0, h),
+            Vec3::new(h, 0.0, h),
+            Vec3::new(h, 0.0, -h),
+        ],
+        material,
+    )
+}
+
 /// Unit square at height y, facing up (+y) or down.
 pub fn horizontal_square(y: f32, up: bool, material: usize) -> Patch {
     let mut v = vec![

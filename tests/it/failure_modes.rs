@@ -522,15 +522,7 @@ fn few_rays_noise_behind_a_partial_blocker() {
         Vec3::new(0.4, 1.0, -0.1),
     ];
     let blocker = polygon(&blocker_vertices, 0);
-    let floor = polygon(
-        &[
-            Vec3::new(-0.5, 0.0, -0.5),
-            Vec3::new(-0.5, 0.0, 0.5),
-            Vec3::new(0.5, 0.0, 0.5),
-            Vec3::new(0.5, 0.0, -0.5),
-        ],
-        0,
-    );
+    let floor = common::floor(0.5, 0);
     let s = scene(
         vec![shooter.clone(), blocker, floor],
         vec![material(0.5, 0.0), material(0.0, 1.0)],

@@ -307,15 +307,7 @@ fn gpu_source_gather_gives_the_closed_form_where_nothing_blocks() {
         0,
     );
     assert!(light.normal.y < -0.99);
-    let floor = polygon(
-        &[
-            Vec3::new(-5.0, 0.0, -5.0),
-            Vec3::new(-5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, -5.0),
-        ],
-        1,
-    );
+    let floor = common::floor(5.0, 1);
     let s = scene(
         vec![light, floor],
         vec![material(0.0, 1.0), material(0.5, 0.0)],

@@ -63,15 +63,7 @@ fn hidden_target_is_skipped_and_blocker_behind_target_is_ignored() {
         0,
     );
     let target = horizontal_square(1.0, true, 0);
-    let floor = polygon(
-        &[
-            Vec3::new(-5.0, 0.0, -5.0),
-            Vec3::new(-5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, 5.0),
-            Vec3::new(5.0, 0.0, -5.0),
-        ],
-        0,
-    );
+    let floor = common::floor(5.0, 0);
     let s = scene(
         vec![light, occluder, target, floor],
         vec![material(0.5, 0.0), material(0.5, 1.0)],
