@@ -17,7 +17,7 @@ use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::progress::MeshMeter;
 use crate::output::image_io::save_image;
 use crate::output::tonemap::auto_exposure;
-use crate::render::{default_camera, export_lit_mesh, render_image};
+use crate::render::{default_camera, export_lit_mesh, render_image, seen_elements};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
@@ -71,6 +71,11 @@ pub struct Job {
     /// where the value gathered at their centroid is off the Gouraud one
     /// (penumbrae, skinny elements between shadow lines).
     pub display_refinements: usize,
+    /// With a display mesh: gather the vertices of the elements the image
+    /// does not show too. Off, only the shown elements' vertices are
+    /// gathered and refined (the rest read 0, and reach no pixel); an
+    /// export always gathers all, since a lit mesh is seen from anywhere.
+    pub gather_unseen: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): split
     /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
     /// over `tolerance` x the mean radiosity, worst first and within
@@ -109,6 +114,7 @@ impl Job {
             display_edge: None,
             display_mesher: Some(Mesher::Discontinuity { subdivide: true }),
             display_refinements: DISPLAY_REFINEMENTS,
+            gather_unseen: false,
             adaptive: 0,
             tolerance: 0.02,
             max_elements: None,
@@ -447,18 +453,21 @@ pub fn run_scene(
         }
         _ => None,
     };
-    if let Some(d) = &display {
+    if let Some(d) = display.as_mut() {
         // The display mesh's size is known now: the gather and the render
         // are checked against it before they grow.
         memory
             .with_display(d.mesh.elements.len() as u64)
             .check(None)?;
-        end_stage(
-            &mut log,
-            trace,
-            ("display mesh", t),
-            || json!({ "elements": display.as_ref().map(|d| d.mesh.elements.len()) }),
-        );
+        if !job.gather_unseen && job.export.is_none() {
+            d.shown = Some(seen_elements(&device, &scene, &d.mesh, &camera, job.size)?);
+        }
+        end_stage(&mut log, trace, ("display mesh", t), || {
+            json!({
+                "elements": display.as_ref().map(|d| d.mesh.elements.len()),
+                "shown": display.as_ref().and_then(|d| d.shown.as_ref()).map(|s| s.iter().filter(|&&s| s).count()),
+            })
+        });
     }
     let t = Instant::now();
     let mut interrupted = if display_interrupted {
@@ -574,6 +583,10 @@ pub fn run_scene(
             || json!({ "vertices": shown.len() }),
         );
     }
+    let shown_elements = display
+        .as_ref()
+        .and_then(|d| d.shown.as_ref())
+        .map(|shown| shown.iter().filter(|&&s| s).count());
     let display_mesh = display.map(|d| d.mesh);
     let t = Instant::now();
     on_update(&Update::Stage {
@@ -620,6 +633,7 @@ pub fn run_scene(
         scene,
         mesh,
         display_mesh,
+        shown_elements,
         gathered: job.final_gather.is_some()
             && !matches!(interrupted, Some("gather" | "display mesh" | "solve")),
         vertex_radiosity: shown,

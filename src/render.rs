@@ -13,7 +13,9 @@ use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::{Camera, Scene};
 
+mod seen;
 mod textured;
+pub use seen::seen_elements;
 pub use textured::{export_lit_mesh, gpu_textures, lit_vertices};
 
 /// Samples per pixel: the image is rendered once per sample, each pass

@@ -45,6 +45,9 @@ const DISPLAY_PER_PATCH: u64 = 16;
 /// Bytes per pixel sample (the render's colour and depth) and per pixel
 /// (the HDR image, its tone-mapped copy).
 const BYTES_PER_SAMPLE: u64 = 16;
+/// The shown-elements item buffer's atlas at its largest: 2048^2 ids and
+/// depth-stencil (`render/seen.rs`).
+const SEEN_ATLAS_BYTES: u64 = 2048 * 2048 * 9;
 const BYTES_PER_PIXEL: u64 = 32;
 
 /// One stage's share of the estimate.
@@ -131,12 +134,20 @@ impl RunEstimate {
             bytes: DISPLAY_BYTES_PER_ELEMENT * display_elements.unwrap_or(mesh.elements),
         });
         let (w, h) = (u64::from(shape.size.0), u64::from(shape.size.1));
+        // The item buffer that finds the display elements the image shows
+        // (its per-element copies fit in the display mesh's share).
+        let shown = if display.is_some() {
+            SEEN_ATLAS_BYTES
+        } else {
+            0
+        };
         parts.push(EstimatePart {
             stage: "render",
-            bytes: w
-                * h
-                * (BYTES_PER_PIXEL
-                    + BYTES_PER_SAMPLE * u64::from(samples_per_pixel(shape.size.0, shape.size.1))),
+            bytes: shown
+                + w * h
+                    * (BYTES_PER_PIXEL
+                        + BYTES_PER_SAMPLE
+                            * u64::from(samples_per_pixel(shape.size.0, shape.size.1))),
         });
         RunEstimate {
             mesh,

@@ -21,6 +21,9 @@ pub struct Report {
     /// The finer mesh the image and the lit mesh show, when there is one
     /// (see [`Job::display_edge`]).
     pub display_mesh: Option<Mesh>,
+    /// How many of the display mesh's elements the image shows, when only
+    /// their vertices were gathered (`Job::gather_unseen`).
+    pub shown_elements: Option<usize>,
     /// Whether the vertex values shown were gathered (`Job::final_gather`).
     pub gathered: bool,
     /// The radiosity shown at every vertex of the display mesh (or of
@@ -105,6 +108,7 @@ impl Report {
             "display_mesh": self.display_mesh.as_ref().map(|m| serde_json::json!({
                 "elements": m.elements.len(),
                 "vertices": m.vertices.len(),
+                "shown_elements": self.shown_elements,
             })),
             "mesh": {
                 "elements": self.mesh.elements.len(),

@@ -103,9 +103,17 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     }
     match &r.display_mesh {
         Some(d) => println!(
-            "  display   {} elements, {} vertices, each vertex gathered from the solved elements{passes} (--display-mesh, --display-edge)",
+            "  display   {} elements{}, {} vertices, each {}gathered from the solved elements{passes} (--display-mesh, --display-edge)",
             d.elements.len(),
-            d.vertices.len()
+            r.shown_elements
+                .map(|n| format!(" ({n} in the image)"))
+                .unwrap_or_default(),
+            d.vertices.len(),
+            if r.shown_elements.is_some() {
+                "vertex of those (all with --export) "
+            } else {
+                "vertex "
+            }
         ),
         None if r.gathered => println!(
             "  display   the solved mesh, each vertex gathered from the solved elements{passes}"

@@ -81,6 +81,18 @@ impl VisibilityPass {
         polygon_count: u32,
         tile_res: u32,
     ) -> Result<Self> {
+        Self::with_atlas_side(device, triangles, polygon_count, tile_res, 8192)
+    }
+
+    /// [`VisibilityPass::new`] with an atlas of at most `max_side` pixels a
+    /// side (at least one tile): few, large tiles need no 8192^2 atlas.
+    pub fn with_atlas_side(
+        device: &Arc<Device>,
+        triangles: &[ItemVertex],
+        polygon_count: u32,
+        tile_res: u32,
+        max_side: u32,
+    ) -> Result<Self> {
         if triangles.is_empty() || polygon_count == 0 {
             return Err(Error::Invalid(
                 "visibility: the scene has no polygons".into(),
@@ -92,7 +104,7 @@ impl VisibilityPass {
             )));
         }
         let depth_format = pick_depth_stencil(device)?;
-        let max_side = device.limits.max_image_dimension2_d.min(8192);
+        let max_side = device.limits.max_image_dimension2_d.min(max_side);
         let tiles_per_side = (max_side / tile_res).clamp(1, MAX_TILES_PER_SIDE);
         let side = tiles_per_side * tile_res;
         let extent = vk::Extent2D {

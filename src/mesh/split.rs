@@ -11,7 +11,14 @@ impl Mesh {
     /// centroids; every other element and every vertex stays as it was
     /// (new vertices are appended).
     pub fn split_at_centroids(&self, split: &[usize]) -> Mesh {
+        self.split_at_centroids_traced(split).0
+    }
+
+    /// [`Mesh::split_at_centroids`], and for each new element the element
+    /// it came from (itself, or the one split into it).
+    pub fn split_at_centroids_traced(&self, split: &[usize]) -> (Mesh, Vec<u32>) {
         let split: HashSet<usize> = split.iter().copied().collect();
+        let mut parents = Vec::with_capacity(self.elements.len() + 3 * split.len());
         let mut vertices = self.vertices.clone();
         let mut elements = Vec::with_capacity(self.elements.len() + 3 * split.len());
         let mut patch_elements = Vec::with_capacity(self.patch_elements.len());
@@ -21,6 +28,7 @@ impl Mesh {
                 let e = &self.elements[k];
                 if !split.contains(&k) {
                     elements.push(*e);
+                    parents.push(k as u32);
                     continue;
                 }
                 let centre = vertices.len() as u32;
@@ -38,15 +46,17 @@ impl Mesh {
                         centre: (pa + pb + e.centre) / 3.0,
                         normal: e.normal,
                     });
+                    parents.push(k as u32);
                 }
             }
             patch_elements.push(first..elements.len() as u32);
         }
-        Mesh {
+        let mesh = Mesh {
             vertices,
             elements,
             patch_elements,
-        }
+        };
+        (mesh, parents)
     }
 }
 
@@ -74,5 +84,16 @@ mod tests {
         // The first new vertex is element 0's centroid.
         let new: Vec3 = split.vertices[mesh.vertices.len()];
         assert!(new.distance(mesh.elements[0].centre) < 1e-6);
+        // Each new element names the one it came from, and covers its part.
+        let (traced, parents) = mesh.split_at_centroids_traced(&[0, 3]);
+        assert_eq!(traced.elements.len(), parents.len());
+        for (k, &p) in parents.iter().enumerate() {
+            let e = &traced.elements[k];
+            let from = &mesh.elements[p as usize];
+            assert_eq!(e.patch, from.patch);
+            assert!(e.area <= from.area + 1e-6);
+        }
+        assert_eq!(parents.iter().filter(|&&p| p == 0).count(), 4);
+        assert_eq!(parents.iter().filter(|&&p| p == 1).count(), 1);
     }
 }

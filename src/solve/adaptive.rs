@@ -230,8 +230,19 @@ pub(crate) fn mean_receiver_radiosity(
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
 ) -> Option<f32> {
+    mean_receiver_radiosity_of(scene, mesh, vertex_radiosity, |_| true)
+}
+
+/// [`mean_receiver_radiosity`] over the elements `keep` admits.
+pub(crate) fn mean_receiver_radiosity_of(
+    scene: &Scene,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+    keep: impl Fn(usize) -> bool,
+) -> Option<f32> {
     let (mut sum, mut area) = (0.0f64, 0.0f64);
-    for e in mesh.elements.iter().filter(|e| !is_emitter(scene, e)) {
+    let kept = mesh.elements.iter().enumerate().filter(|&(k, _)| keep(k));
+    for (_, e) in kept.filter(|(_, e)| !is_emitter(scene, e)) {
         sum += corner_mean(e, vertex_radiosity) as f64 * e.area as f64;
         area += e.area as f64;
     }

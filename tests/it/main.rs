@@ -24,6 +24,7 @@ mod hierarchy;
 mod layout;
 mod seams;
 mod shaders;
+mod shown;
 mod smooth;
 mod stages;
 mod textures;

@@ -68,6 +68,8 @@ fn a_tessellated_sphere_shades_like_the_smooth_one() {
     std::fs::create_dir_all(&dir).unwrap();
     job.output = Some(dir.join("sphere.png"));
     job.size = (64, 64);
+    // Every vertex is looked at, not just those the image shows.
+    job.gather_unseen = true;
     let report = run_scene(&job, scene, 0.0, Some(device.clone()), |_| true).unwrap();
     let mesh = report.display_mesh.as_ref().unwrap_or(&report.mesh);
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();

@@ -51,6 +51,9 @@ pub struct DisplayMesh {
     pub mesh: Mesh,
     pub mesher: Mesher,
     pub edge: f32,
+    /// The elements the image shows (`render::seen_elements`), when only
+    /// they are gathered (no lit mesh is exported); `None`: all are.
+    pub shown: Option<Vec<bool>>,
 }
 
 /// The finer mesh the final gather shades: the display mesher at the
@@ -89,7 +92,12 @@ pub fn display_mesh(
         if request.check {
             check_mesh(&mesh, scene, mesher)?;
         }
-        Ok(DisplayMesh { mesh, mesher, edge })
+        Ok(DisplayMesh {
+            mesh,
+            mesher,
+            edge,
+            shown: None,
+        })
     };
     match build(mesher, builder) {
         Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
@@ -113,11 +121,13 @@ pub enum Shaded {
     Nothing,
 }
 
-/// Gathers the display mesh's vertices, then (discontinuity display
-/// meshes only) splits its elements where [`split_points`] finds the
-/// Gouraud image wrong and gathers the new vertices; every point is
-/// counted on `meter`, whose total the caller has given the display
-/// mesh's vertices (the refinement passes add their own).
+/// Gathers the display mesh's vertices (those of its shown elements,
+/// when it marks them), then (discontinuity display meshes only) splits
+/// its (shown) elements where [`split_points`] finds the Gouraud image
+/// wrong and gathers the new vertices; every point is counted on `meter`,
+/// whose total the caller has given the display mesh's vertices (the
+/// refinement passes add their own, and the gather takes back those it
+/// leaves out).
 pub fn shade_display(
     scene: &Scene,
     gather: &FinalGather,
@@ -134,7 +144,12 @@ pub fn shade_display(
         min_edge: display.edge / 8.0,
     };
     let mut cache = VertexCache::default();
-    let Some(mut values) = gather.at_vertices_metered(&display.mesh, &mut cache, meter) else {
+    let Some(mut values) = gather.at_shown_vertices_metered(
+        &display.mesh,
+        display.shown.as_deref(),
+        &mut cache,
+        meter,
+    ) else {
         return Shaded::Nothing;
     };
     // A uniform display mesh has shadow and contact lines inside its
@@ -149,6 +164,7 @@ pub fn shade_display(
             scene,
             &display.mesh,
             &values,
+            display.shown.as_deref(),
             gather,
             &refinement,
             &mut checked,
@@ -163,13 +179,20 @@ pub fn shade_display(
         // mesh stays conforming, no vertex moves, and only the centroids
         // are gathered. (Re-meshing with the centroids inserted made the
         // discontinuity mesher leave regions unsubdivided.)
-        let finer = display.mesh.split_at_centroids(&split);
+        let (finer, parents) = display.mesh.split_at_centroids_traced(&split);
+        let shown = display.shown.as_ref().map(|shown| {
+            parents
+                .iter()
+                .map(|&p| shown[p as usize])
+                .collect::<Vec<_>>()
+        });
         meter.total += finer.vertices.len();
-        match gather.at_vertices_metered(&finer, &mut cache, meter) {
+        match gather.at_shown_vertices_metered(&finer, shown.as_deref(), &mut cache, meter) {
             Some(v) => values = v,
             None => return Shaded::Partial(values),
         }
         display.mesh = finer;
+        display.shown = shown;
     }
     Shaded::Done(values)
 }

@@ -23,7 +23,6 @@
 //! image must resolve), reflecting ones a few, in proportion to their form
 //! factor.
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
@@ -35,12 +34,11 @@ use self::gpu_direct::GpuDirect;
 use self::point_gather::Gather;
 use self::receiver::fan_of;
 use self::reflected_cache::{Record, ReflectedCache};
+pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
-use crate::formfactor::receivers::vertex_frames;
 use crate::gpu::Device;
-use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 use crate::trace::Trace;
@@ -203,13 +201,6 @@ pub fn gather_vertices(
 ) -> Vec<[f32; 3]> {
     FinalGather::new(scene, solved, tree, radiosity, settings)
         .at_vertices(display, &mut VertexCache::default())
-}
-
-/// Gathered values kept by place, so that a refined display mesh gathers
-/// only its new vertices.
-#[derive(Default)]
-pub struct VertexCache {
-    values: HashMap<(u32, [i64; 3]), [f32; 3]>,
 }
 
 /// Counts the points gathered, for a progress display: `tick(done,
@@ -428,68 +419,6 @@ impl<'a> FinalGather<'a> {
         })
     }
 
-    /// Radiosity at every vertex of `display` (any mesh of the same scene;
-    /// vertices no element uses get 0). Vertices at one place on patches
-    /// that meet below the crease angle are gathered once and show one
-    /// value. Places found in `cache` are not gathered again; new ones are
-    /// added to it.
-    pub fn at_vertices(&self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
-        self.at_vertices_metered(display, cache, &mut Meter::unwatched())
-            .expect("an unwatched meter never stops")
-    }
-
-    /// [`FinalGather::at_vertices`], counting its points on `meter`; `None`
-    /// when it stops them (the cache keeps what was gathered).
-    pub fn at_vertices_metered(
-        &self,
-        display: &Mesh,
-        cache: &mut VertexCache,
-        meter: &mut Meter,
-    ) -> Option<Vec<[f32; 3]>> {
-        let scene = self.gather.scene;
-        let (points, _, patches) = vertex_frames(scene, display);
-        let groups = smooth_groups(scene, display, CREASE_DEGREES);
-        let place = place_cells(scene);
-        let key = |v: u32| (patches[v as usize], place(display.vertices[v as usize]));
-        let todo: Vec<usize> = (0..groups.members.len())
-            .filter(|&g| !cache.values.contains_key(&key(groups.members[g].0)))
-            .collect();
-        let mut frames: Vec<Frame> = todo
-            .iter()
-            .map(|&g| {
-                let (v, normal) = groups.members[g];
-                (points[v as usize], normal, patches[v as usize])
-            })
-            .collect();
-        let vertices: Vec<u32> = todo.iter().map(|&g| groups.members[g].0).collect();
-        exposure::unenclosed(
-            scene,
-            &self.gather.occluders,
-            display,
-            &vertices,
-            &mut frames,
-        );
-        // What the groups leave out of the count (the meter was told of
-        // every vertex).
-        meter.total = meter
-            .total
-            .saturating_sub(display.vertices.len() - frames.len());
-        let vals = self.gather.at_points(&frames, None, meter)?;
-        for (&g, value) in todo.iter().zip(vals) {
-            cache.values.insert(key(groups.members[g].0), value);
-        }
-        Some(
-            groups
-                .group
-                .iter()
-                .map(|&g| match groups.members.get(g as usize) {
-                    Some(&(v, _)) => cache.values[&key(v)],
-                    None => [0.0; 3],
-                })
-                .collect(),
-        )
-    }
-
     /// Radiosity at arbitrary points `(point, normal, patch)` on the front
     /// of their patch.
     pub fn at_points(&self, frames: &[(Vec3, Vec3, u32)]) -> Vec<[f32; 3]> {
@@ -680,3 +609,4 @@ pub mod refine;
 mod reflected_cache;
 #[cfg(test)]
 mod tests;
+mod vertices;

@@ -20,7 +20,7 @@ use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
-use crate::solve::adaptive::{corner_mean, longest_edge, mean_receiver_radiosity};
+use crate::solve::adaptive::{corner_mean, longest_edge, mean_receiver_radiosity_of};
 
 /// Corners whose shared normal is within about 0.25 degrees of their
 /// element's count as flat.
@@ -53,12 +53,15 @@ pub struct Checked {
 }
 
 /// The display elements to split at their centroids (indices), worst
-/// first, at most one per four elements; the centroids gathered are
-/// counted on `meter` (`None`: it stopped them).
+/// first, at most one per four elements, among those `shown` marks
+/// (`None`: all; the others' values are not gathered); the centroids
+/// gathered are counted on `meter` (`None`: it stopped them).
+#[allow(clippy::too_many_arguments)]
 pub fn split_points(
     scene: &Scene,
     display: &Mesh,
     values: &[[f32; 3]],
+    shown: Option<&[bool]>,
     gather: &FinalGather,
     settings: &DisplayRefinement,
     checked: &mut Checked,
@@ -88,11 +91,12 @@ pub fn split_points(
                 .is_some_and(|&(_, n)| n.dot(e.normal) > FLAT_COSINE)
         })
     };
+    let is_shown = |k: usize| shown.is_none_or(|shown| shown[k]);
     let receiving = |k: usize| {
         let e = &display.elements[k];
-        e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
+        is_shown(k) && e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
     };
-    let Some(mean) = mean_receiver_radiosity(scene, display, values) else {
+    let Some(mean) = mean_receiver_radiosity_of(scene, display, values, is_shown) else {
         return Some(Vec::new());
     };
     let floor = settings.floor * mean;

@@ -1,4 +1,5 @@
 //! Tests of the final gather: exact cases, light leaks, exposure.
+use std::collections::HashMap;
 use std::f32::consts::PI;
 
 use super::*;
@@ -314,6 +315,7 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         &s,
         &display,
         &values,
+        None,
         &gather,
         &refinement,
         &mut checked,
@@ -345,6 +347,7 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         &s,
         &display,
         &values,
+        None,
         &gather,
         &refinement,
         &mut checked,
