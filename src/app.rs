@@ -23,7 +23,9 @@ use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Sol
 use crate::solve::progressive::passes_needed;
 use crate::solve::solution::{add_ambient, add_ambient_to_elements};
 pub use crate::solve::vertex_gather::display::DISPLAY_REFINEMENTS;
-use crate::solve::vertex_gather::display::{display_mesh, shade_display, DisplayRequest, Shaded};
+use crate::solve::vertex_gather::display::{
+    display_mesh, shade_display, DisplayMesh, DisplayRequest, Shaded,
+};
 use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, SolveSettings};
 use crate::trace::{cat, span_since, Trace};
@@ -465,7 +467,7 @@ pub fn run_scene(
         end_stage(&mut log, trace, ("display mesh", t), || {
             json!({
                 "elements": display.as_ref().map(|d| d.mesh.elements.len()),
-                "shown": display.as_ref().and_then(|d| d.shown.as_ref()).map(|s| s.iter().filter(|&&s| s).count()),
+                "shown": display.as_ref().and_then(DisplayMesh::shown_count),
             })
         });
     }
@@ -583,10 +585,7 @@ pub fn run_scene(
             || json!({ "vertices": shown.len() }),
         );
     }
-    let shown_elements = display
-        .as_ref()
-        .and_then(|d| d.shown.as_ref())
-        .map(|shown| shown.iter().filter(|&&s| s).count());
+    let shown_elements = display.as_ref().and_then(DisplayMesh::shown_count);
     let display_mesh = display.map(|d| d.mesh);
     let t = Instant::now();
     on_update(&Update::Stage {

@@ -56,6 +56,15 @@ pub struct DisplayMesh {
     pub shown: Option<Vec<bool>>,
 }
 
+impl DisplayMesh {
+    /// How many elements the image shows, when they are marked.
+    pub fn shown_count(&self) -> Option<usize> {
+        self.shown
+            .as_ref()
+            .map(|shown| shown.iter().filter(|&&s| s).count())
+    }
+}
+
 /// The finer mesh the final gather shades: the display mesher at the
 /// display edge, unless both are the solve's (a coarser mesh for the
 /// display is never built: `None`). A discontinuity display mesh that
