@@ -17,6 +17,7 @@ use crate::mesh::element_count;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
 use crate::solve::vertex_gather::display::DisplayRequest;
+use crate::solve::vertex_gather::LINKS_BUDGET;
 
 /// The process, the Vulkan device and its pipelines, the hemicube's
 /// targets: 95-107 MB after the solve of every scene up to 12,544
@@ -28,6 +29,10 @@ const SCENE_BYTES_PER_PATCH: u64 = 1024;
 /// Per scene triangle: the final gather's ray-tracing tree (BVH nodes,
 /// triangles, their patch ids).
 const TREE_BYTES_PER_TRIANGLE: u64 = 160;
+/// Per solved element: the links its centre's first Jacobi pass records
+/// for the later ones (1,700 bytes each on `rfield`), up to
+/// [`LINKS_BUDGET`].
+const LINK_BYTES_PER_ELEMENT: u64 = 2048;
 /// Per display element: its build (triangulations, junction repair's
 /// spatial hash), its vertices' gathered values and caches, and the
 /// render's vertex and colour copies (rfield: 477k elements took 93 MB to
@@ -124,9 +129,10 @@ impl RunEstimate {
                 .iter()
                 .map(|p| p.vertices.len().saturating_sub(2) as u64)
                 .sum();
+            let links = (LINK_BYTES_PER_ELEMENT * mesh.elements).min(LINKS_BUDGET as u64);
             parts.push(EstimatePart {
                 stage: "gather",
-                bytes: TREE_BYTES_PER_TRIANGLE * triangles,
+                bytes: TREE_BYTES_PER_TRIANGLE * triangles + links,
             });
         }
         parts.push(EstimatePart {

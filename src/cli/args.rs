@@ -283,6 +283,12 @@ pub(crate) struct RenderArgs {
     /// the CPU itself (lavapipe, where the pass is 3-6x slower).
     #[arg(long, value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
     pub(crate) direct_light: DirectLightArg,
+    /// Trace rays again in every Jacobi pass at the element centres
+    /// instead of reusing the sources and visible form factors the first
+    /// pass found (slower; the same answer but for how the first pass
+    /// opened the hierarchy; for comparison).
+    #[arg(long)]
+    pub(crate) retrace_passes: bool,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
     /// the default --max-edge; at most --max-edge).

@@ -82,6 +82,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         source_passes: args.gather_passes,
         reuse: args.reflected_reuse,
         direct_light: args.direct_light.direct_light(),
+        retrace_passes: args.retrace_passes,
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

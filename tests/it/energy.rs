@@ -128,6 +128,9 @@ fn mean_radiance(image: &vkrad::output::image_io::HdrImage) -> f64 {
 /// The ambient term (Cohen et al. 1988) makes an early preview closer to
 /// the converged image: the mean radiance of a partial solution plus
 /// ambient is nearer the converged mean than the partial solution alone.
+/// The solver's own values: the final gather's Jacobi passes would
+/// bring the unshot light back themselves (40 shots then read within
+/// 0.03% of the converged mean).
 #[test]
 fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
     use vkrad::app::{run, Job};
@@ -140,6 +143,7 @@ fn ambient_term_brings_a_preview_closer_to_the_converged_image() {
         job.size = (48, 48);
         job.max_edge = Some(140.0);
         job.ambient = ambient;
+        job.final_gather = None;
         job.solve = SolveSettings {
             hemicube_res: 32,
             converge: 1e-3,

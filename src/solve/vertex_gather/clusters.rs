@@ -11,6 +11,7 @@ use std::f32::consts::PI;
 
 use glam::Vec3;
 
+use super::links::Links;
 use super::reflected_cache::HarmonicDistance;
 use super::{is_even, Source};
 use crate::formfactor::raytrace::Occluders;
@@ -219,19 +220,20 @@ impl Cluster {
     }
 
     /// Whether nothing in it can reach the receiver (all behind its
-    /// tangent plane, or dark).
-    pub(super) fn unseen(&self, p: Vec3, n: Vec3) -> bool {
-        (self.hi <= 0.0 && !self.emits) || (self.centre - p).dot(n) < -self.radius
+    /// tangent plane, or dark unless `dark_counts`).
+    pub(super) fn unseen(&self, p: Vec3, n: Vec3, dark_counts: bool) -> bool {
+        (self.hi <= 0.0 && !self.emits && !dark_counts) || (self.centre - p).dot(n) < -self.radius
     }
 
     /// Sum of B F V over its representatives (their distances added to
-    /// `distance`, when given).
+    /// `distance`, their links to `links`, when given).
     pub(super) fn gather(
         &self,
         (p, n, patch): (Vec3, Vec3, u32),
         sources: &[Source],
         occluders: &Occluders,
         mut distance: Option<&mut HarmonicDistance>,
+        mut links: Option<&mut Links>,
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for r in &self.representatives {
@@ -247,6 +249,9 @@ impl Cluster {
                 sum += src.radiosity * ff;
                 if let Some(distance) = distance.as_deref_mut() {
                     distance.add(ff, r2.sqrt());
+                }
+                if let Some(links) = links.as_deref_mut() {
+                    links.take(r.node, ff);
                 }
             }
         }

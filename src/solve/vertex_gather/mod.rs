@@ -31,7 +31,9 @@ use glam::{DVec3, Vec3};
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
 use self::gpu_direct::GpuDirect;
-use self::point_gather::Gather;
+use self::links::Links;
+pub use self::links::LINKS_BUDGET;
+use self::point_gather::{Gather, Linking};
 use self::receiver::fan_of;
 use self::reflected_cache::{Record, ReflectedCache};
 pub use self::vertices::VertexCache;
@@ -70,6 +72,9 @@ pub struct VertexGather {
     pub reuse: f32,
     /// Where the emitters' direct light is gathered ([`gpu_direct`]).
     pub direct_light: DirectLight,
+    /// Trace every Jacobi pass again instead of reusing the first pass's
+    /// links ([`links`]): slower, for comparison.
+    pub retrace_passes: bool,
 }
 
 /// Where the final gather's direct light is gathered.
@@ -84,12 +89,14 @@ pub enum DirectLight {
 }
 
 impl VertexGather {
-    /// How many times the gather may visit every element centre: the
-    /// Jacobi passes, and one more for the reflected cache's records
-    /// (skipped when the last pass can take them: the meter's total then
-    /// shrinks).
+    /// How many times the gather traces from every element centre: the
+    /// first Jacobi pass (the later ones reuse its links), or without
+    /// passes the reflected cache's records.
     pub fn centre_gathers(&self) -> usize {
-        self.source_passes + usize::from(self.reuse > 0.0)
+        match self.retrace_passes {
+            true => self.source_passes + usize::from(self.reuse > 0.0),
+            false => usize::from(self.source_passes > 0 || self.reuse > 0.0),
+        }
     }
 }
 
@@ -104,6 +111,7 @@ impl Default for VertexGather {
             link_error: LINK_ERROR,
             reuse: REUSE,
             direct_light: DirectLight::Auto,
+            retrace_passes: false,
         }
     }
 }
@@ -237,8 +245,12 @@ impl<'a> Meter<'a> {
         }
     }
 
-    /// Counts `points` more; false: stop.
+    /// Counts `points` more; false: stop. Counting none reports nothing
+    /// (work too quick to show, such as the passes over recorded links).
     fn advance(&mut self, points: usize) -> bool {
+        if points == 0 {
+            return true;
+        }
         self.done += points;
         self.total = self.total.max(self.done);
         match &mut self.tick {
@@ -259,9 +271,6 @@ pub struct FinalGather<'a> {
     gather: Gather<'a>,
     /// Why the GPU did not gather the direct light though asked to.
     gpu_refused: Option<String>,
-    /// The reflected cache's records came from the last Jacobi pass (no
-    /// gather of their own).
-    records_from_last_pass: bool,
 }
 
 impl<'a> FinalGather<'a> {
@@ -360,62 +369,56 @@ impl<'a> FinalGather<'a> {
             .zip(&exposed)
             .map(|(e, part)| (part.centre, e.normal, e.patch))
             .collect();
-        // The cache's records are taken in the last pass when that pass
-        // changes the light by little (then its sources, one pass behind
-        // the final ones, are as good), otherwise in a gather of their own
-        // from the final sources.
-        let mut records = None;
-        let mut changes: Vec<f64> = Vec::new();
-        let mut previous: Option<Vec<[f32; 3]>> = None;
+        // The first pass records each centre's links; the later ones are
+        // sparse products over them ([`links`]). With the reflected cache,
+        // the first pass also measures how far each centre's light holds,
+        // and the cache's records take their light from the final sources.
+        let mut links: Vec<Option<Links>> = Vec::new();
+        let mut reach: Option<Vec<f32>> = None;
+        let record = (settings.reuse > 0.0).then_some(true);
         for pass in 0..settings.source_passes {
-            let in_pass = settings.reuse > 0.0
-                && pass + 1 == settings.source_passes
-                && predicted_change(&changes) < RECORD_IN_PASS;
-            let gathered = gather.gather_points(
-                &frames,
-                Some(&gather.element_rho),
-                in_pass.then_some(true),
-                meter,
-            )?;
+            let linking = match pass {
+                _ if settings.retrace_passes => Linking::None,
+                0 => Linking::Record(&mut links),
+                _ => Linking::Replay(&links),
+            };
+            let rho = Some(&gather.element_rho[..]);
+            let gathered = match pass {
+                0 => gather.gather_points(&frames, rho, record, linking, meter)?,
+                _ => gather.gather_points(&frames, rho, None, linking, meter)?,
+            };
+            if pass == 0 && record.is_some() {
+                reach = Some(gathered.iter().map(|(_, g)| g.reach()).collect());
+            }
             let mut corrected: Vec<[f32; 3]> = gathered.iter().map(|(b, _)| b.to_array()).collect();
             for (b, part) in corrected.iter_mut().zip(&exposed) {
                 if part.share <= 0.0 {
                     *b = [0.0; 3];
                 }
             }
-            if in_pass {
-                records = Some(centre_records(&frames, &gathered, &exposed, solved));
-                // The gather of their own that the meter counted.
-                meter.total = meter.total.saturating_sub(frames.len());
-            }
-            if let Some(before) = &previous {
-                changes.push(relative_change(before, &corrected, solved));
-            }
             gather.sources = sources(scene, solved, tree, &corrected, &exposed);
             gather.clusters.relight(&gather.sources);
             gather.emitters_to_gpu(&roots, &mut gpu_refused);
-            previous = Some(corrected);
         }
-        let records_from_last_pass = records.is_some();
         if settings.reuse > 0.0 {
-            let records = match records {
-                Some(records) => records,
-                None => {
-                    let gathered = gather.gather_points(
-                        &frames,
-                        Some(&gather.element_rho),
-                        Some(false),
-                        meter,
-                    )?;
-                    centre_records(&frames, &gathered, &exposed, solved)
-                }
-            };
+            // Only the reflected light, from the final sources: by the
+            // links where there are, gathered again where not (no passes,
+            // or past the links' budget).
+            let linking = Linking::Replay(&links);
+            let gathered = gather.gather_points(
+                &frames,
+                Some(&gather.element_rho),
+                Some(false),
+                linking,
+                meter,
+            )?;
+            let reach = reach.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.reach()).collect());
+            let records = centre_records(&frames, &gathered, &reach, &exposed, solved);
             gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
         }
         Some(FinalGather {
             gather,
             gpu_refused,
-            records_from_last_pass,
         })
     }
 
@@ -436,12 +439,6 @@ impl<'a> FinalGather<'a> {
             .as_ref()
             .and_then(|g| g.failure.lock().unwrap_or_else(|e| e.into_inner()).clone());
         self.gpu_refused.clone().or(failed)
-    }
-
-    /// Whether the reflected cache's records came from the last Jacobi
-    /// pass (no gather of their own).
-    pub fn records_from_last_pass(&self) -> bool {
-        self.records_from_last_pass
     }
 
     /// Whether the GPU gathers the emitters' direct light.
@@ -473,65 +470,31 @@ impl<'a> FinalGather<'a> {
 /// Where a value is gathered: point, normal, patch (`u32::MAX`: none).
 type Frame = (Vec3, Vec3, u32);
 
-/// A pass whose change to the element values is predicted under this
-/// share takes the reflected cache's records itself (no gather of their
-/// own): its sources are one pass behind the final ones, off by about
-/// that share, and the records' light a share of what a point shows.
-/// Half a percent, the default `--stop-error`. Measured changes of the
-/// last passes: `vkrad cornell` 0.14% then 0.09%, CornellBox-Original
-/// about 0.25% (the gather's noise keeps it there), `curved.obj` 0.06%.
-const RECORD_IN_PASS: f64 = 5e-3;
-
-/// The relative change the next Jacobi pass will make, from the last
-/// two (each pass shrinks it by about the return ratio); infinite when
-/// fewer than two are known.
-fn predicted_change(changes: &[f64]) -> f64 {
-    match changes {
-        [.., older, last] if *older > 0.0 => last * last / older,
-        [.., _, last] if *last == 0.0 => 0.0,
-        _ => f64::INFINITY,
-    }
-}
-
-/// The area-weighted change from `before` to `after` (element values),
-/// over the area-weighted sum of `after`.
-fn relative_change(before: &[[f32; 3]], after: &[[f32; 3]], mesh: &Mesh) -> f64 {
-    let (mut change, mut total) = (0.0f64, 0.0f64);
-    for ((b, a), e) in before.iter().zip(after).zip(&mesh.elements) {
-        let area = e.area as f64;
-        for k in 0..3 {
-            change += (a[k] - b[k]).abs() as f64 * area;
-            total += a[k].abs() as f64 * area;
-        }
-    }
-    if total > 0.0 {
-        change / total
-    } else {
-        0.0
-    }
-}
-
 /// The reflected cache's records: every exposed element centre's
-/// reflected light (`gathered` at `frames`) and how far it holds.
+/// reflected light (`gathered` at `frames`) and how far it holds
+/// (`reach`).
 fn centre_records(
     frames: &[Frame],
     gathered: &[(Vec3, point_gather::Gathered)],
+    reach: &[f32],
     exposed: &[ExposedPart],
     mesh: &Mesh,
 ) -> Vec<Record> {
     frames
         .iter()
-        .zip(gathered)
+        .zip(gathered.iter().zip(reach))
         .zip(exposed.iter().zip(&mesh.elements))
         .filter(|(_, (part, _))| part.share > 0.0)
-        .map(|((&(point, normal, patch), (_, g)), (_, e))| Record {
-            point,
-            normal,
-            patch,
-            width: (2.0 * e.area).sqrt(),
-            reach: g.reach(),
-            reflected: g.reflected,
-        })
+        .map(
+            |((&(point, normal, patch), ((_, g), &reach)), (_, e))| Record {
+                point,
+                normal,
+                patch,
+                width: (2.0 * e.area).sqrt(),
+                reach,
+                reflected: g.reflected,
+            },
+        )
         .collect()
 }
 
@@ -603,6 +566,7 @@ mod clusters;
 pub mod display;
 mod exposure;
 mod gpu_direct;
+mod links;
 mod point_gather;
 mod receiver;
 pub mod refine;

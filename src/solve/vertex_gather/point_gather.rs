@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use super::clusters::Clusters;
 use super::exposure;
 use super::gpu_direct::GpuDirect;
+use super::links::{Links, LINKS_BUDGET};
 use super::receiver::Receiver;
 use super::reflected_cache::{HarmonicDistance, ReflectedCache};
 use super::{
@@ -46,6 +47,15 @@ pub(super) struct Gather<'a> {
     pub(super) reused: [AtomicUsize; 2],
     /// The direct light's pass on the GPU, when asked for.
     pub(super) gpu_direct: Option<GpuDirect>,
+}
+
+/// What a gather does with the points' links ([`Links`]).
+pub(super) enum Linking<'l> {
+    None,
+    /// Records them here, one per point (`None` past the budget).
+    Record(&'l mut Vec<Option<Links>>),
+    /// Takes the light from them where a point has them.
+    Replay(&'l [Option<Links>]),
 }
 
 /// Which sources a point gathers from, and whether it measures how far
@@ -141,48 +151,104 @@ impl Gather<'_> {
         rho: Option<&[Vec3]>,
         meter: &mut Meter,
     ) -> Option<Vec<[f32; 3]>> {
-        let gathered = self.gather_points(frames, rho, None, meter)?;
+        let gathered = self.gather_points(frames, rho, None, Linking::None, meter)?;
         Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
     }
 
     /// [`Self::at_points`] with each point's gathered light by kind;
     /// `record`: measure how far each one's reflected light holds, and
-    /// (`Some(false)`) gather only that.
+    /// (`Some(false)`) gather only that. `linking`: record each point's
+    /// links, or take the light from them where recorded.
     pub(super) fn gather_points(
         &self,
         frames: &[Frame],
         rho: Option<&[Vec3]>,
         record: Option<bool>,
+        mut linking: Linking,
         meter: &mut Meter,
     ) -> Option<Vec<(Vec3, Gathered)>> {
         let mut out = Vec::with_capacity(frames.len());
+        let mut recorded_bytes = 0usize;
         // The Jacobi passes at the element centres, or the points asked for.
         let name = ["gather points", "element-centre pass"][usize::from(rho.is_some())];
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
-            // The GPU's share first (unless only records are wanted).
-            let direct = match (&self.gpu_direct, record) {
-                (Some(gpu), None | Some(true)) => gpu.direct(c * CHUNK, chunk),
+            let first = c * CHUNK;
+            // Points without links (none recorded, or past the budget)
+            // are traced.
+            let replayed = |i: usize| match &linking {
+                Linking::Replay(links) => links.get(first + i).and_then(Option::as_ref),
                 _ => None,
             };
+            // The GPU's share first (unless only records are wanted).
+            let direct = match (&self.gpu_direct, record) {
+                (Some(gpu), None | Some(true)) => gpu.direct(first, chunk),
+                _ => None,
+            };
+            let rho_of = |i: usize, frame: &Frame| match rho {
+                Some(rho) => rho[first + i],
+                None => self
+                    .patch_rho
+                    .get(frame.2 as usize)
+                    .copied()
+                    .unwrap_or_default(),
+            };
+            let recording = matches!(linking, Linking::Record(_)) && recorded_bytes < LINKS_BUDGET;
             let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
-            out.par_extend(chunk.par_iter().enumerate().traced(&spans, |(i, frame)| {
-                let k = c * CHUNK + i;
-                let rho = match rho {
-                    Some(rho) => rho[k],
-                    None => self
-                        .patch_rho
-                        .get(frame.2 as usize)
-                        .copied()
-                        .unwrap_or_default(),
-                };
-                let direct = direct.as_ref().map(|d| d[i]);
-                self.at_frame(k, frame, rho, record, direct)
-            }));
-            if !meter.advance(chunk.len()) {
+            let gathered: Vec<(Vec3, Gathered, Option<Links>)> = chunk
+                .par_iter()
+                .enumerate()
+                .traced(&spans, |(i, frame)| {
+                    let rho = rho_of(i, frame);
+                    let direct = direct.as_ref().map(|d| d[i]);
+                    if let Some(links) = replayed(i) {
+                        let (b, g) = self.by_links(frame, rho, links, direct);
+                        return (b, g, None);
+                    }
+                    let mut links = recording.then(Links::default);
+                    let (b, g) =
+                        self.at_frame(first + i, frame, rho, record, direct, links.as_mut());
+                    if let Some(links) = &mut links {
+                        links.shrink();
+                    }
+                    (b, g, links)
+                })
+                .collect();
+            let traced = (0..chunk.len()).filter(|&i| replayed(i).is_none()).count();
+            for (b, g, links) in gathered {
+                out.push((b, g));
+                if let Linking::Record(recorded) = &mut linking {
+                    recorded_bytes += links.as_ref().map_or(0, Links::bytes);
+                    recorded.push(links);
+                }
+            }
+            if !meter.advance(traced) {
                 return None;
             }
         }
         Some(out)
+    }
+
+    /// Radiosity at `frame` (reflectance `rho`) from its recorded `links`
+    /// and the current sources; `direct`: its direct light when the GPU
+    /// gathered it.
+    fn by_links(
+        &self,
+        &(_, _, patch): &Frame,
+        rho: Vec3,
+        links: &Links,
+        direct: Option<Vec3>,
+    ) -> (Vec3, Gathered) {
+        let Some(surface) = self.scene.patches.get(patch as usize) else {
+            return (Vec3::ZERO, Gathered::default());
+        };
+        let linked = links.evaluate(&self.sources);
+        let gathered = Gathered {
+            direct: direct.unwrap_or(linked.direct),
+            reflected: linked.reflected,
+            ..Gathered::default()
+        };
+        let emission = self.scene.material_of(surface).emission;
+        (emission * PI + rho * gathered.total(), gathered)
     }
 
     /// Radiosity at frame number `k` (which seeds its rays), of
@@ -190,6 +256,7 @@ impl Gather<'_> {
     /// light comes from the cache where a record is valid, its direct
     /// light is `direct` when the GPU gathered it. `record`: measure how
     /// far its reflected light holds, and (`Some(false)`) gather only that.
+    /// `links`: record there the sources it takes.
     fn at_frame(
         &self,
         k: usize,
@@ -197,6 +264,7 @@ impl Gather<'_> {
         rho: Vec3,
         record: Option<bool>,
         direct: Option<Vec3>,
+        links: Option<&mut Links>,
     ) -> (Vec3, Gathered) {
         let Some(surface) = self.scene.patches.get(patch as usize) else {
             return (Vec3::ZERO, Gathered::default());
@@ -223,7 +291,7 @@ impl Gather<'_> {
                 },
                 (Some(reflected), None) => Gathered {
                     reflected,
-                    ..self.at_point(&at, true, Sources::EMITTING, &mut rng)
+                    ..self.at_point(&at, true, Sources::EMITTING, &mut rng, links)
                 },
                 (None, direct) if record.is_some() => {
                     let wanted = Sources {
@@ -231,7 +299,7 @@ impl Gather<'_> {
                         reflected: true,
                         record: true,
                     };
-                    let mut gathered = self.at_point(&at, true, wanted, &mut rng);
+                    let mut gathered = self.at_point(&at, true, wanted, &mut rng, links);
                     if let Some(direct) = direct {
                         gathered.direct = direct;
                     }
@@ -239,9 +307,9 @@ impl Gather<'_> {
                 }
                 (None, Some(direct)) => Gathered {
                     direct,
-                    ..self.at_point(&at, true, Sources::REFLECTING, &mut rng)
+                    ..self.at_point(&at, true, Sources::REFLECTING, &mut rng, links)
                 },
-                (None, None) => self.at_point(&at, true, Sources::ALL, &mut rng),
+                (None, None) => self.at_point(&at, true, Sources::ALL, &mut rng, links),
             };
         }
         (material.emission * PI + rho * gathered.total(), gathered)
@@ -250,12 +318,14 @@ impl Gather<'_> {
     /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
     /// a leaf that fills much of the view takes the radiosity at its
     /// point beside the receiver instead of its mean ([`Self::beside`]).
+    /// `links`: record there each source taken and its weight.
     fn at_point(
         &self,
         at: &Receiver,
         look_closer: bool,
         wanted: Sources,
         rng: &mut Pcg32,
+        mut links: Option<&mut Links>,
     ) -> Gathered {
         let settings = &self.settings;
         let mut gathered = Gathered::default();
@@ -269,7 +339,10 @@ impl Gather<'_> {
         };
         while let Some(c) = clusters.pop() {
             let cluster = &self.clusters.nodes[c as usize];
-            if cluster.unseen(at.p, at.n) || (!wanted.reflected && !cluster.emits) {
+            // A gather that records its links takes the dark sources too:
+            // later passes may light them.
+            let dark_counts = links.is_some();
+            if cluster.unseen(at.p, at.n, dark_counts) || (!wanted.reflected && !cluster.emits) {
                 continue;
             }
             let tolerance = settings.link_error * self.clusters.level;
@@ -283,6 +356,7 @@ impl Gather<'_> {
                     &self.sources,
                     &self.occluders,
                     (wanted.record).then_some(&mut gathered.distance),
+                    links.as_deref_mut(),
                 );
                 continue;
             }
@@ -307,7 +381,11 @@ impl Gather<'_> {
             // its dark mean may hide a lit sliver (elements under a box but
             // for a strip along its foot) that `beside` finds in its leaves.
             let look_beside = look_closer && near && src.covered;
-            let dark = !src.emits && src.radiosity.max_element() <= 0.0 && even && !look_beside;
+            let dark = !src.emits
+                && src.radiosity.max_element() <= 0.0
+                && even
+                && !look_beside
+                && links.is_none();
             let faces = at.faces(node.centre, node.normal, &node.polygon);
             let far = node.radius <= settings.opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
@@ -334,11 +412,20 @@ impl Gather<'_> {
             }
             let ff = at.form_factor(src, near, &self.occluders, settings, rng);
             let mut radiosity = src.radiosity;
+            let mut kept = 1.0;
             if look_beside && node.children.is_empty() && !src.emits && ff > CLOSE_FF.0 {
-                if let Some(b) = self.beside(at, n, rng) {
+                let mut there = links.is_some().then(Links::default);
+                if let Some((b, emission, rho)) = self.beside(at, n, rng, there.as_mut()) {
                     let w = ((ff - CLOSE_FF.0) / (CLOSE_FF.1 - CLOSE_FF.0)).min(1.0);
                     radiosity = radiosity.lerp(b, w);
+                    kept = 1.0 - w;
+                    if let (Some(links), Some(there)) = (links.as_deref_mut(), &there) {
+                        links.take_beside(there, emission, rho, ff * w);
+                    }
                 }
+            }
+            if let Some(links) = links.as_deref_mut() {
+                links.take(n, ff * kept);
             }
             if src.emits {
                 gathered.direct += radiosity * ff;
@@ -360,8 +447,15 @@ impl Gather<'_> {
     /// solved floor element under the corner of a box) would otherwise
     /// lend its mean to a receiver that sees only its lit side: the foot
     /// of a lit box face read 75% dark on Cornell. `None` where that
-    /// point is enclosed.
-    fn beside(&self, at: &Receiver, n: u32, rng: &mut Pcg32) -> Option<Vec3> {
+    /// point is enclosed. With the value, its emission and reflectance
+    /// (what its `links`, when asked for, are weighed by).
+    fn beside(
+        &self,
+        at: &Receiver,
+        n: u32,
+        rng: &mut Pcg32,
+        links: Option<&mut Links>,
+    ) -> Option<(Vec3, Vec3, Vec3)> {
         let node = &self.tree.nodes[n as usize];
         let height = (at.p - node.centre).dot(node.normal);
         if height <= 0.0 {
@@ -401,7 +495,8 @@ impl Gather<'_> {
             n: node.normal,
             patch: node.patch,
         };
-        let gathered = self.at_point(&there, false, Sources::ALL, rng);
-        Some(material.emission * PI + rho * gathered.total())
+        let gathered = self.at_point(&there, false, Sources::ALL, rng, links);
+        let emission = material.emission * PI;
+        Some((emission + rho * gathered.total(), emission, rho))
     }
 }
