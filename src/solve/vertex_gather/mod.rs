@@ -382,12 +382,11 @@ impl<'a> FinalGather<'a> {
                 0 => Linking::Record(&mut links),
                 _ => Linking::Replay(&links),
             };
+            // Only the first pass measures how far the light holds.
+            let measure = record.filter(|_| pass == 0);
             let rho = Some(&gather.element_rho[..]);
-            let gathered = match pass {
-                0 => gather.gather_points(&frames, rho, record, linking, meter)?,
-                _ => gather.gather_points(&frames, rho, None, linking, meter)?,
-            };
-            if pass == 0 && record.is_some() {
+            let gathered = gather.gather_points(&frames, rho, measure, linking, meter)?;
+            if measure.is_some() {
                 reach = Some(gathered.iter().map(|(_, g)| g.reach()).collect());
             }
             let mut corrected: Vec<[f32; 3]> = gathered.iter().map(|(b, _)| b.to_array()).collect();
