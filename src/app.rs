@@ -17,6 +17,7 @@ use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::progress::MeshMeter;
 use crate::output::image_io::save_image;
 use crate::output::tonemap::auto_exposure;
+use crate::render::pixel_gather::{PixelPoints, Shade};
 use crate::render::{default_camera, export_lit_mesh, render_image, seen_elements};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
@@ -73,6 +74,9 @@ pub struct Job {
     /// where the value gathered at their centroid is off the Gouraud one
     /// (penumbrae, skinny elements between shadow lines).
     pub display_refinements: usize,
+    /// Where the image is gathered: at its pixels or at a display mesh's
+    /// vertices ([`Shade`]).
+    pub shade: Shade,
     /// With a display mesh: gather the vertices of the elements the image
     /// does not show too. Off, only the shown elements' vertices are
     /// gathered and refined (the rest read 0, and reach no pixel); an
@@ -116,6 +120,7 @@ impl Job {
             display_edge: None,
             display_mesher: Some(Mesher::Discontinuity { subdivide: true }),
             display_refinements: DISPLAY_REFINEMENTS,
+            shade: Shade::Auto,
             gather_unseen: false,
             adaptive: 0,
             tolerance: 0.02,
@@ -267,10 +272,23 @@ fn display_request(job: &Job) -> DisplayRequest {
 pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
     let shape = RunShape {
         mesh: mesh_settings(job, scene),
-        display: (job.final_gather.is_some() && job.adaptive == 0).then_some(display_request(job)),
+        display: (job.final_gather.is_some()
+            && job.adaptive == 0
+            && !gathers_at_pixels(job, scene))
+        .then_some(display_request(job)),
         size: job.size,
     };
     RunEstimate::new(scene, &shape)
+}
+
+/// Whether `job` gathers its image at the pixels ([`Shade`]): only after a
+/// final gather, and not with `--adaptive` (which shows its own mesh).
+fn gathers_at_pixels(job: &Job, scene: &Scene) -> bool {
+    job.final_gather.is_some()
+        && job.adaptive == 0
+        && job
+            .shade
+            .at_pixels(scene, job.export.is_some() || job.wireframe)
 }
 
 /// [`run`] on a scene already loaded (in `load_seconds`).
@@ -427,8 +445,9 @@ pub fn run_scene(
     }
     let request = display_request(job);
     let mut display_interrupted = false;
+    let at_pixels = gathers_at_pixels(job, &scene);
     let mut display = match &job.final_gather {
-        Some(_) if job.adaptive == 0 && !solution.interrupted => {
+        Some(_) if job.adaptive == 0 && !solution.interrupted && !at_pixels => {
             let mut tick = |done: usize, total: usize| {
                 on_update(&Update::Stage {
                     stage: "display mesh",
@@ -499,6 +518,8 @@ pub fn run_scene(
     });
     let mut reflected_reuse = (0, 0);
     let mut direct_on_gpu = false;
+    let mut pixel_image = None;
+    let mut pixel_counts = None;
     let shown = match &final_gather {
         Some(settings) if interrupted.is_none() => {
             // Gathered from the elements as shown: the ambient term joins
@@ -515,7 +536,11 @@ pub fn run_scene(
                     total,
                 })
             };
-            let vertices = display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len();
+            let pixel_points = at_pixels.then(|| PixelPoints::cast(&scene, &camera, job.size));
+            let vertices = match &pixel_points {
+                Some(p) => p.len(),
+                None => display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len(),
+            };
             // The stage starts now: its rate and ETA count from here.
             let planned = settings.centre_gathers() * mesh.elements.len() + vertices;
             let started = tick(0, planned);
@@ -535,15 +560,23 @@ pub fn run_scene(
                 ) {
                     None => Shaded::Nothing,
                     Some(gather) => {
-                        let shaded = match display.as_mut() {
-                            Some(display) => shade_display(
+                        let shaded = match (&pixel_points, display.as_mut()) {
+                            (Some(points), _) => match points.gather(&scene, &gather, &mut meter) {
+                                Some(image) => {
+                                    pixel_image = Some(image);
+                                    pixel_counts = Some(points.counts());
+                                    Shaded::Done(solver_values())
+                                }
+                                None => Shaded::Nothing,
+                            },
+                            (None, Some(display)) => shade_display(
                                 &scene,
                                 &gather,
                                 display,
                                 job.display_refinements,
                                 &mut meter,
                             ),
-                            None => match gather.at_vertices_metered(
+                            (None, None) => match gather.at_vertices_metered(
                                 &mesh,
                                 &mut VertexCache::default(),
                                 &mut meter,
@@ -582,7 +615,7 @@ pub fn run_scene(
             &mut log,
             trace,
             ("gather", t),
-            || json!({ "vertices": shown.len() }),
+            || json!({ "vertices": shown.len(), "pixels": pixel_image.is_some() }),
         );
     }
     let shown_elements = display.as_ref().and_then(DisplayMesh::shown_count);
@@ -595,16 +628,19 @@ pub fn run_scene(
     });
     let radiance = crate::render::radiance_of(shown.clone());
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
-    let image = render_image(
-        &device,
-        &scene,
-        shown_mesh,
-        &radiance,
-        &camera,
-        job.size,
-        job.wireframe,
-        &mut gpu_times,
-    )?;
+    let image = match pixel_image {
+        Some(image) => image,
+        None => render_image(
+            &device,
+            &scene,
+            shown_mesh,
+            &radiance,
+            &camera,
+            job.size,
+            job.wireframe,
+            &mut gpu_times,
+        )?,
+    };
     end_stage(
         &mut log,
         trace,
@@ -655,5 +691,6 @@ pub fn run_scene(
         gather_passes: final_gather.map(|g| g.source_passes),
         reflected_reuse,
         direct_on_gpu,
+        gathered_at_pixels: pixel_counts,
     })
 }

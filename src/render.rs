@@ -13,8 +13,10 @@ use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::{Camera, Scene};
 
+pub mod pixel_gather;
 mod seen;
 mod textured;
+pub use pixel_gather::PixelPoints;
 pub use seen::seen_elements;
 pub use textured::{export_lit_mesh, gpu_textures, lit_vertices};
 

@@ -71,6 +71,11 @@ pub struct Report {
     /// Whether the GPU gathered the emitters' direct light
     /// (`--direct-light`).
     pub direct_on_gpu: bool,
+    /// Where the image was gathered at its pixels
+    /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
+    /// vertex values: the points its reflected light and its direct light
+    /// were gathered at.
+    pub gathered_at_pixels: Option<(usize, usize)>,
 }
 
 impl Report {
@@ -140,6 +145,10 @@ impl Report {
             "gather_passes": self.gather_passes,
             "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
             "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
+            "image_gathered_at": match self.gathered_at_pixels {
+                Some((reflected, direct)) => serde_json::json!({ "pixels": { "reflected_points": reflected, "direct_points": direct } }),
+                None => serde_json::json!("vertices"),
+            },
             "outputs": {
                 "image": self.output.display().to_string(),
                 "mesh": self.export.as_ref().map(|p| p.display().to_string()),

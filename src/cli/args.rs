@@ -11,6 +11,7 @@ use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
 use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::DeviceOptions;
 use vkrad::mesh::build::Mesher;
+use vkrad::render::pixel_gather::Shade;
 use vkrad::solve::{FormFactorMethod, HierarchyRule, Shooting};
 
 #[derive(Parser)]
@@ -108,6 +109,23 @@ impl DirectLightArg {
             DirectLightArg::Auto => DirectLight::Auto,
             DirectLightArg::Cpu => DirectLight::Cpu,
             DirectLightArg::Gpu => DirectLight::Gpu,
+        }
+    }
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum ShadeArg {
+    Auto,
+    Mesh,
+    Pixels,
+}
+
+impl ShadeArg {
+    pub(crate) fn shade(self) -> Shade {
+        match self {
+            ShadeArg::Auto => Shade::Auto,
+            ShadeArg::Mesh => Shade::Mesh,
+            ShadeArg::Pixels => Shade::Pixels,
         }
     }
 }
@@ -289,6 +307,15 @@ pub(crate) struct RenderArgs {
     /// opened the hierarchy; for comparison).
     #[arg(long)]
     pub(crate) retrace_passes: bool,
+    /// Where the final gather shades the image. pixels: at the points each
+    /// pixel's samples see (the reflected light once per patch a pixel
+    /// shows, the direct light at 4 samples a pixel), so every shadow is as
+    /// sharp as the image. mesh: at the vertices of a display mesh
+    /// (--display-mesh, --display-edge), interpolated between them; what
+    /// --export writes. auto: pixels, unless the lit mesh is exported or
+    /// the scene has textures (the pixels read their patch's mean colour).
+    #[arg(long, value_enum, value_name = "WHERE", default_value_t = ShadeArg::Auto)]
+    pub(crate) shade: ShadeArg,
     /// Longest element edge of the display mesh, whose vertices the final
     /// gather shades from the elements solved at --max-edge (default: half
     /// the default --max-edge; at most --max-edge).

@@ -88,6 +88,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
     job.display_edge = args.display_edge;
     job.display_mesher = Some(args.display_mesh.mesher(true));
     job.display_refinements = args.display_refinements;
+    job.shade = args.shade.shade();
     job.adaptive = args.adaptive;
     job.tolerance = args.tolerance;
     job.max_elements = args.max_elements;

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use vkrad::app::{run, Job};
 use vkrad::output::compare::{compare_rgb8, diff_image, save_png_rgb8};
 use vkrad::output::image_io::load_png_rgb8;
+use vkrad::render::pixel_gather::Shade;
 use vkrad::solve::SolveSettings;
 
 /// Fixed, not automatic, so that a change of absolute brightness shows.
@@ -27,6 +28,8 @@ fn cornell_box_matches_golden_image() {
     job.output = Some(out_dir.join("cornell.png"));
     job.size = (192, 192);
     job.exposure = Some(EXPOSURE);
+    // The display mesh's image (the pixels' own test is `pixels`).
+    job.shade = Shade::Mesh;
     // Coarse enough to run in seconds on lavapipe with validation on.
     job.max_edge = Some(70.0);
     job.solve = SolveSettings {

@@ -31,7 +31,16 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
     ),
     (
         "render",
-        &["error", "geom", "scene", "mesh", "gpu", "output", "solve"],
+        &[
+            "error",
+            "geom",
+            "scene",
+            "mesh",
+            "formfactor",
+            "gpu",
+            "output",
+            "solve",
+        ],
     ),
     ("app", &[ANY_BUT_BENCH]),
     ("bench", &[ANY_BUT_BENCH]),

@@ -11,6 +11,8 @@ fn job(name: &str) -> (Job, std::path::PathBuf) {
     let mut job = Job::new("simple");
     job.output = Some(dir.join("out.png"));
     job.size = (48, 48);
+    // What the display mesh shows (the pixels' own test is `pixels`).
+    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
     (job, dir)
 }
 

@@ -42,6 +42,8 @@ fn small_job(dir: &Path, trace: Option<Arc<Trace>>) -> Job {
     let mut job = Job::new("simple");
     job.output = Some(dir.join("simple.png"));
     job.size = (48, 48);
+    // What the display mesh shows (the pixels' own test is `pixels`).
+    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
     job.device.trace = trace;
     job
 }
@@ -339,7 +341,9 @@ fn stages_of(span: &str) -> &'static [&'static str] {
 fn rayon_work_is_traced_per_worker_on_its_own_track_inside_its_stage() {
     let dir = temp_dir("rayon");
     let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
-        .args(["simple", "--size", "32x32", "--trace", "t.json"])
+        .args([
+            "simple", "--size", "32x32", "--shade", "mesh", "--trace", "t.json",
+        ])
         .env("RAYON_NUM_THREADS", "2")
         .current_dir(&dir)
         .output()

@@ -456,6 +456,18 @@ impl<'a> FinalGather<'a> {
         )
     }
 
+    /// The emitters' direct light at each frame (`direct`), or the light
+    /// the other sources reflect there: `sum B_s F V` before the point's
+    /// own reflectance, counted on `meter`; `None` when it stops them.
+    pub fn light_at_points(
+        &self,
+        frames: &[(Vec3, Vec3, u32)],
+        direct: bool,
+        meter: &mut Meter,
+    ) -> Option<Vec<Vec3>> {
+        self.gather.light_at(frames, direct, meter)
+    }
+
     /// [`FinalGather::at_points`], counting them on `meter`.
     pub fn at_points_metered(
         &self,

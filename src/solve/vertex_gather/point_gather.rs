@@ -155,6 +155,49 @@ impl Gather<'_> {
         Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
     }
 
+    /// One kind of light at every frame, before its reflectance: the
+    /// emitters' direct light (`direct`) or the rest, the reflected light
+    /// (from the reflected cache where a record is valid). In chunks
+    /// counted on `meter`; `None` when it stops them.
+    pub(super) fn light_at(
+        &self,
+        frames: &[Frame],
+        direct: bool,
+        meter: &mut Meter,
+    ) -> Option<Vec<Vec3>> {
+        let wanted = [Sources::REFLECTING, Sources::EMITTING][usize::from(direct)];
+        // Streams apart from the display points' and the centres'.
+        let stream = 1u64 << 40 | u64::from(direct) << 39;
+        let mut out = Vec::with_capacity(frames.len());
+        for (c, chunk) in frames.chunks(CHUNK).enumerate() {
+            let first = c * CHUNK;
+            let on_gpu = match &self.gpu_direct {
+                Some(gpu) if direct => gpu.direct(first, chunk),
+                _ => None,
+            };
+            if let Some(values) = on_gpu {
+                out.extend(values);
+            } else {
+                out.par_extend(chunk.par_iter().enumerate().map(|(i, &(p, n, patch))| {
+                    if let Some(cache) = self.reflected_cache.as_ref().filter(|_| !direct) {
+                        let cached = cache.lookup(p, n, patch);
+                        self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
+                        if let Some(reflected) = cached {
+                            return reflected;
+                        }
+                    }
+                    let mut rng = Pcg32::new(0x005e_ed0f_9a7e, stream + (first + i) as u64);
+                    let g = self.at_point(&Receiver { p, n, patch }, true, wanted, &mut rng, None);
+                    [g.reflected, g.direct][usize::from(direct)]
+                }));
+            }
+            if !meter.advance(chunk.len()) {
+                return None;
+            }
+        }
+        Some(out)
+    }
+
     /// [`Self::at_points`] with each point's gathered light by kind;
     /// `record`: measure how far each one's reflected light holds, and
     /// (`Some(false)`) gather only that. `linking`: record each point's
