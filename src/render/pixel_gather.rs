@@ -23,7 +23,7 @@ use std::f32::consts::PI;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::{pixel_samples, samples_per_pixel};
+use super::pixel_samples;
 use crate::formfactor::raytrace::Occluders;
 use crate::output::HdrImage;
 use crate::scene::{Camera, Scene};
@@ -87,16 +87,30 @@ pub struct PixelPoints {
     pub reflected_weights: Vec<(u32, f32)>,
 }
 
-/// Samples a pixel gathers the direct light at: 4 (stratified, 2x2) up to
-/// 256x256 pixels, 1 beyond, so that an image's direct gathers stay about
-/// 2^18 up to 512x512 and a pixel of a larger image is small beside the
-/// penumbrae it shows.
+/// Samples a pixel gathers the direct light at: the most of 16, 4 and 1
+/// (stratified) that keep an image's direct gathers within 2^18 (4 up to
+/// 256x256, 1 beyond): a pixel's share of a shadow's edge is its share of
+/// the samples that see the light.
 pub fn direct_samples(width: u32, height: u32) -> u32 {
-    if u64::from(width) * u64::from(height) <= 1 << 16 {
-        4
-    } else {
-        1
-    }
+    most_samples(width, height, 1 << 18)
+}
+
+/// Samples a pixel casts to find what it shows and in what share: the
+/// most of 64, 16, 4 and 1 that keep an image's camera rays within 2^22
+/// (64 up to 256x256, 16 up to 512x512). A ray costs far less than a
+/// gather, and a pixel across a silhouette is off by its coverage's error.
+pub fn coverage_samples(width: u32, height: u32) -> u32 {
+    most_samples(width, height, 1 << 22)
+}
+
+/// The most of 64, 16, 4 and 1 samples a pixel that keep `width x height`
+/// pixels within `budget` samples.
+fn most_samples(width: u32, height: u32, budget: u64) -> u32 {
+    let pixels = u64::from(width) * u64::from(height);
+    [64u32, 16, 4, 1]
+        .into_iter()
+        .find(|&n| pixels * u64::from(n) <= budget)
+        .unwrap_or(1)
 }
 
 /// Side in pixels of the blocks the reflected light is gathered once per
@@ -117,7 +131,7 @@ impl PixelPoints {
     /// Casts every pixel's samples through `camera` into `scene`.
     pub fn cast(scene: &Scene, camera: &Camera, (w, h): (u32, u32)) -> Self {
         let occluders = Occluders::new(scene);
-        let n = samples_per_pixel(w, h);
+        let n = coverage_samples(w, h);
         let coverage = pixel_samples(n);
         let direct = pixel_samples(direct_samples(w, h).min(n));
         let rays = CameraRays::new(camera, w, h);

@@ -48,10 +48,13 @@ fn the_pixels_and_the_display_mesh_show_the_same_light() {
         .zip(&mesh.pixels)
         .filter(|(a, b)| covered(a) != covered(b))
         .count();
-    // Over the pixels both show: their relative RMS difference.
+    // Over the pixels both show, but the light itself (whose radiance is
+    // hundreds of times the floor's: a sliver of it across a pixel's edge
+    // would outweigh the rest): their relative RMS difference.
+    let lit = |p: &[f32; 3]| covered(p) && lum(p) < 10.0 * mean;
     let (mut sq, mut sum, mut count) = (0.0f64, 0.0f64, 0usize);
     for (a, b) in pixels.pixels.iter().zip(&mesh.pixels) {
-        if covered(a) && covered(b) {
+        if lit(a) && lit(b) {
             sq += f64::from(lum(a) - lum(b)).powi(2);
             sum += f64::from(lum(b));
             count += 1;
@@ -62,6 +65,7 @@ fn the_pixels_and_the_display_mesh_show_the_same_light() {
         .pixels
         .iter()
         .zip(&mesh.pixels)
+        .filter(|(a, b)| lit(a) && lit(b))
         .map(|(a, b)| f64::from(lum(a) - lum(b)))
         .sum::<f64>()
         / sum;
