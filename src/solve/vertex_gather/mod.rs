@@ -459,13 +459,16 @@ impl<'a> FinalGather<'a> {
     /// The emitters' direct light at each frame (`direct`), or the light
     /// the other sources reflect there: `sum B_s F V` before the point's
     /// own reflectance, counted on `meter`; `None` when it stops them.
+    /// Frame `i` traces random stream `first_stream + i` (points gathered
+    /// in two calls take apart streams).
     pub fn light_at_points(
         &self,
         frames: &[(Vec3, Vec3, u32)],
         direct: bool,
+        first_stream: u64,
         meter: &mut Meter,
     ) -> Option<Vec<Vec3>> {
-        self.gather.light_at(frames, direct, meter)
+        self.gather.light_at(frames, direct, first_stream, meter)
     }
 
     /// [`FinalGather::at_points`], counting them on `meter`.

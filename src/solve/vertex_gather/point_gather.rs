@@ -158,16 +158,18 @@ impl Gather<'_> {
     /// One kind of light at every frame, before its reflectance: the
     /// emitters' direct light (`direct`) or the rest, the reflected light
     /// (from the reflected cache where a record is valid). In chunks
-    /// counted on `meter`; `None` when it stops them.
+    /// counted on `meter`; `None` when it stops them. Frame `i`'s rays
+    /// follow random stream `first + i`.
     pub(super) fn light_at(
         &self,
         frames: &[Frame],
         direct: bool,
+        first_stream: u64,
         meter: &mut Meter,
     ) -> Option<Vec<Vec3>> {
         let wanted = [Sources::REFLECTING, Sources::EMITTING][usize::from(direct)];
         // Streams apart from the display points' and the centres'.
-        let stream = 1u64 << 40 | u64::from(direct) << 39;
+        let stream = (1u64 << 40 | u64::from(direct) << 39) + first_stream;
         let mut out = Vec::with_capacity(frames.len());
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
             let first = c * CHUNK;
