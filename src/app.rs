@@ -562,9 +562,9 @@ pub fn run_scene(
                     Some(gather) => {
                         let shaded = match (&pixel_points, display.as_mut()) {
                             (Some(points), _) => match points.gather(&scene, &gather, &mut meter) {
-                                Some(image) => {
+                                Some((image, counts)) => {
                                     pixel_image = Some(image);
-                                    pixel_counts = Some(points.counts());
+                                    pixel_counts = Some(counts);
                                     Shaded::Done(solver_values())
                                 }
                                 None => Shaded::Nothing,

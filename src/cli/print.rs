@@ -106,9 +106,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             let (reflected, direct) = r.gathered_at_pixels.unwrap_or_default();
             let (w, h) = (r.image.width, r.image.height);
             println!(
-                "  display   gathered at the {w}x{h} pixels: the reflected light at {reflected} points (a patch's per {k}x{k} pixels), the direct light at {direct} (up to {d} a pixel){passes} (--shade)",
+                "  display   gathered at the {w}x{h} pixels: the reflected light at {reflected} points (a patch's per {k}x{k} pixels), the direct light at {direct} ({d} a pixel, {e} more across shadow edges){passes} (--shade)",
                 k = vkrad::render::pixel_gather::reflected_block(w, h),
                 d = vkrad::render::pixel_gather::direct_samples(w, h),
+                e = vkrad::render::pixel_gather::edge_samples(w, h),
             );
         }
         Some(d) => println!(
