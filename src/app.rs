@@ -519,7 +519,6 @@ pub fn run_scene(
     let mut reflected_reuse = (0, 0);
     let mut direct_on_gpu = false;
     let mut pixel_image = None;
-    let mut pixel_counts = None;
     let shown = match &final_gather {
         Some(settings) if interrupted.is_none() => {
             // Gathered from the elements as shown: the ambient term joins
@@ -536,10 +535,11 @@ pub fn run_scene(
                     total,
                 })
             };
-            let pixel_points = at_pixels.then(|| PixelPoints::cast(&scene, &camera, job.size));
-            let vertices = match &pixel_points {
-                Some(p) => p.len(),
-                None => display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len(),
+            // The pixels' points are cast once the gather's hierarchy is
+            // built; till then about one a pixel is counted.
+            let vertices = match at_pixels {
+                true => (job.size.0 * job.size.1) as usize,
+                false => display.as_ref().map_or(&mesh, |d| &d.mesh).vertices.len(),
             };
             // The stage starts now: its rate and ETA count from here.
             let planned = settings.centre_gathers() * mesh.elements.len() + vertices;
@@ -560,23 +560,27 @@ pub fn run_scene(
                 ) {
                     None => Shaded::Nothing,
                     Some(gather) => {
-                        let shaded = match (&pixel_points, display.as_mut()) {
-                            (Some(points), _) => match points.gather(&scene, &gather, &mut meter) {
-                                Some((image, counts)) => {
-                                    pixel_image = Some(image);
-                                    pixel_counts = Some(counts);
-                                    Shaded::Done(solver_values())
+                        let shaded = match display.as_mut() {
+                            _ if at_pixels => {
+                                let size = job.size;
+                                match PixelPoints::gather_image(
+                                    &scene, &gather, &camera, size, &mut meter,
+                                ) {
+                                    Some(gathered) => {
+                                        pixel_image = Some(gathered);
+                                        Shaded::Done(solver_values())
+                                    }
+                                    None => Shaded::Nothing,
                                 }
-                                None => Shaded::Nothing,
-                            },
-                            (None, Some(display)) => shade_display(
+                            }
+                            Some(display) => shade_display(
                                 &scene,
                                 &gather,
                                 display,
                                 job.display_refinements,
                                 &mut meter,
                             ),
-                            (None, None) => match gather.at_vertices_metered(
+                            None => match gather.at_vertices_metered(
                                 &mesh,
                                 &mut VertexCache::default(),
                                 &mut meter,
@@ -626,15 +630,15 @@ pub fn run_scene(
         done: 0,
         total: 0,
     });
-    let radiance = crate::render::radiance_of(shown.clone());
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
+    let gathered_at_pixels = pixel_image.as_ref().map(|(_, counts)| *counts);
     let image = match pixel_image {
-        Some(image) => image,
+        Some((image, _)) => image,
         None => render_image(
             &device,
             &scene,
             shown_mesh,
-            &radiance,
+            &crate::render::radiance_of(shown.clone()),
             &camera,
             job.size,
             job.wireframe,
@@ -691,6 +695,6 @@ pub fn run_scene(
         gather_passes: final_gather.map(|g| g.source_passes),
         reflected_reuse,
         direct_on_gpu,
-        gathered_at_pixels: pixel_counts,
+        gathered_at_pixels,
     })
 }

@@ -16,7 +16,6 @@ use crate::scene::{Camera, Scene};
 pub mod pixel_gather;
 mod seen;
 mod textured;
-pub use pixel_gather::PixelPoints;
 pub use seen::seen_elements;
 pub use textured::{export_lit_mesh, gpu_textures, lit_vertices};
 

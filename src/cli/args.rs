@@ -308,12 +308,14 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     pub(crate) retrace_passes: bool,
     /// Where the final gather shades the image. pixels: at the points each
-    /// pixel's samples see (the reflected light once per patch a pixel
-    /// shows, the direct light at 4 samples a pixel), so every shadow is as
-    /// sharp as the image. mesh: at the vertices of a display mesh
-    /// (--display-mesh, --display-edge), interpolated between them; what
-    /// --export writes. auto: pixels, unless the lit mesh is exported or
-    /// the scene has textures (the pixels read their patch's mean colour).
+    /// pixel's samples see (the reflected light once per patch in small
+    /// blocks of pixels, the direct light at 4 samples a pixel up to
+    /// 256x256 and 16 more across shadow edges, 1 a pixel beyond), so every
+    /// shadow is as sharp as the image. mesh: at the vertices of a display
+    /// mesh (--display-mesh, --display-edge), interpolated between them;
+    /// what --export writes. auto: pixels, unless the lit mesh is exported
+    /// (--export) or drawn (--wireframe), or the scene has textures (the
+    /// pixels read their patch's mean colour).
     #[arg(long, value_enum, value_name = "WHERE", default_value_t = ShadeArg::Auto)]
     pub(crate) shade: ShadeArg,
     /// Longest element edge of the display mesh, whose vertices the final

@@ -6,16 +6,16 @@
 //! lines, or between two vertices of a coarse element), the Gouraud
 //! interpolation smears the shadow over a whole element; on `rfield` a
 //! thousand such pixels held 70% of the image's squared error. Gathered
-//! at the pixels, every shadow is as sharp as the image can show, and a
-//! scene of many small patches costs about one gather per pixel instead
-//! of one per display vertex (256,700 vertices against some 48,000 points
-//! on `rfield` at 256x256).
+//! at the pixels, every shadow is as sharp as the image can show, and the
+//! cost is about a constant number of gathers per image, whatever the
+//! scene's size.
 //!
-//! Each pixel casts the same jittered samples as the rasterizer
-//! ([`super::pixel_samples`]) on the CPU; the samples that meet the same
-//! patch from its front are gathered once, at their mean point, and
-//! weighted by their count. Samples that meet nothing or a patch's back
-//! are black (a one-sided diffuse surface, as the path tracer has it).
+//! Each pixel casts [`coverage_samples`] stratified camera rays on the CPU,
+//! through the final gather's own ray-tracing hierarchy; the samples that
+//! meet the same patch from its front form a group, weighted by their
+//! count. Samples that meet nothing or a patch's back are black (a
+//! one-sided diffuse surface, as the path tracer has it). How each group's
+//! light is gathered: [`PixelPoints`].
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
@@ -66,30 +66,27 @@ impl Shade {
 /// around its pixel that show its patch.
 #[derive(Debug, Clone)]
 pub struct PixelPoints {
-    pub width: u32,
-    pub height: u32,
+    width: u32,
+    height: u32,
+    camera: Camera,
     /// Each group's patch and pixel.
-    pub group_patch: Vec<u32>,
-    pub group_pixel: Vec<u32>,
+    group_patch: Vec<u32>,
+    group_pixel: Vec<u32>,
     /// Per pixel (row-major, top row first), its groups as `(group, share
     /// of the pixel's samples)`: `pixel_start[p]..pixel_start[p + 1]` of
     /// `shares`.
-    pub pixel_start: Vec<u32>,
-    pub shares: Vec<(u32, f32)>,
+    pixel_start: Vec<u32>,
+    shares: Vec<(u32, f32)>,
     /// Where the direct light is gathered (point, front normal, patch),
     /// and the group of each.
-    pub direct_frames: Vec<(Vec3, Vec3, u32)>,
-    pub direct_group: Vec<u32>,
+    direct_frames: Vec<(Vec3, Vec3, u32)>,
+    direct_group: Vec<u32>,
     /// Where the reflected light is gathered: one point per (block, patch).
-    pub reflected_frames: Vec<(Vec3, Vec3, u32)>,
+    reflected_frames: Vec<(Vec3, Vec3, u32)>,
     /// Per group, `reflected_start[g]..reflected_start[g + 1]` of
     /// `reflected_weights`: (index into reflected_frames, weight).
-    pub reflected_start: Vec<u32>,
-    pub reflected_weights: Vec<(u32, f32)>,
-    /// What cast them, to cast again where a shadow's edge crosses a pixel.
-    occluders: Occluders,
-    rays: CameraRays,
-    eye: Vec3,
+    reflected_start: Vec<u32>,
+    reflected_weights: Vec<(u32, f32)>,
 }
 
 /// Samples a pixel gathers the direct light at: the most of 16, 4 and 1
@@ -171,14 +168,14 @@ fn front_hit(
 type Groups = Vec<(u32, Vec3, u32)>;
 
 impl PixelPoints {
-    /// Casts every pixel's samples through `camera` into `scene`.
-    pub fn cast(scene: &Scene, camera: &Camera, (w, h): (u32, u32)) -> Self {
-        let occluders = Occluders::new(scene);
+    /// Casts every pixel's samples through `camera` into `scene`, whose
+    /// ray-tracing hierarchy is `occluders` ([`FinalGather::occluders`]).
+    pub fn cast(scene: &Scene, occluders: &Occluders, camera: &Camera, (w, h): (u32, u32)) -> Self {
         let rays = CameraRays::new(camera, w, h);
         let n = coverage_samples(w, h);
         let coverage = pixel_samples(n);
         let direct = pixel_samples(direct_samples(w, h).min(n));
-        let hit = |x: f32, y: f32| front_hit(scene, &occluders, &rays, camera.eye, x, y);
+        let hit = |x: f32, y: f32| front_hit(scene, occluders, &rays, camera.eye, x, y);
         let per_pixel: Vec<(Groups, Vec<(u32, Vec3)>)> = (0..w * h)
             .into_par_iter()
             .map(|p| {
@@ -207,6 +204,7 @@ impl PixelPoints {
         let mut points = PixelPoints {
             width: w,
             height: h,
+            camera: *camera,
             group_patch: Vec::new(),
             group_pixel: Vec::new(),
             pixel_start: Vec::with_capacity(per_pixel.len() + 1),
@@ -216,9 +214,6 @@ impl PixelPoints {
             reflected_frames: Vec::new(),
             reflected_start: Vec::new(),
             reflected_weights: Vec::new(),
-            occluders,
-            rays,
-            eye: camera.eye,
         };
         for (p, (groups, direct)) in per_pixel.iter().enumerate() {
             let block = (p as u32 % w) / k + (p as u32 / w) / k * bw;
@@ -317,9 +312,24 @@ impl PixelPoints {
         points
     }
 
+    /// The image `gather` gives at the pixels of a `size` image through
+    /// `camera`: [`PixelPoints::cast`] in its hierarchy, then
+    /// [`PixelPoints::gather`], the points counted on `meter` from here.
+    pub fn gather_image(
+        scene: &Scene,
+        gather: &FinalGather,
+        camera: &Camera,
+        size: (u32, u32),
+        meter: &mut Meter,
+    ) -> Option<(HdrImage, (usize, usize))> {
+        let points = PixelPoints::cast(scene, gather.occluders(), camera, size);
+        meter.total = meter.done + points.len();
+        points.gather(scene, gather, meter)
+    }
+
     /// The image `gather` gives at these points: their reflected light,
     /// then their direct light, then more direct light where a pixel's
-    /// samples of it disagree ([`PixelPoints::edge_samples`]); counted on
+    /// samples of it disagree ([`PixelPoints::edge_frames`]); counted on
     /// `meter` (`None` when it stops them). With the image, how many
     /// points took the reflected light and the direct light.
     pub fn gather(
@@ -331,7 +341,7 @@ impl PixelPoints {
         let reflected = gather.light_at_points(&self.reflected_frames, false, 0, meter)?;
         let direct = gather.light_at_points(&self.direct_frames, true, 0, meter)?;
         let mut samples: Vec<(u32, Vec3)> = self.direct_group.iter().copied().zip(direct).collect();
-        let (frames, groups) = self.edge_samples(scene, &samples);
+        let (frames, groups) = self.edge_frames(scene, gather.occluders(), &samples);
         let first = self.direct_frames.len() as u64;
         let more = gather.light_at_points(&frames, true, first, meter)?;
         samples.extend(groups.into_iter().zip(more));
@@ -344,7 +354,12 @@ impl PixelPoints {
     /// (a shadow's edge crosses its pixel or passes by), the points of
     /// [`edge_samples`] more samples of its pixel on its patch, with the
     /// group of each.
-    fn edge_samples(&self, scene: &Scene, samples: &[(u32, Vec3)]) -> (Vec<Frame>, Vec<u32>) {
+    fn edge_frames(
+        &self,
+        scene: &Scene,
+        occluders: &Occluders,
+        samples: &[(u32, Vec3)],
+    ) -> (Vec<Frame>, Vec<u32>) {
         // Per group: its samples' lowest and highest level and their sum.
         let mut range = vec![(f32::INFINITY, 0.0f32, 0.0f32, 0u32); self.group_patch.len()];
         for &(g, d) in samples {
@@ -382,6 +397,7 @@ impl PixelPoints {
             return (Vec::new(), Vec::new());
         }
         let offsets = pixel_samples(extra);
+        let rays = CameraRays::new(&self.camera, self.width, self.height);
         let found: Vec<Vec<(Frame, u32)>> = (0..self.group_patch.len() as u32)
             .into_par_iter()
             .filter(|&g| {
@@ -395,7 +411,7 @@ impl PixelPoints {
                 offsets
                     .iter()
                     .filter_map(|&(sx, sy)| {
-                        front_hit(scene, &self.occluders, &self.rays, self.eye, x + sx, y + sy)
+                        front_hit(scene, occluders, &rays, self.camera.eye, x + sx, y + sy)
                     })
                     .filter(|&(hit, _)| hit == patch)
                     .map(|(_, at)| ((at, normal, patch), g))
@@ -457,7 +473,6 @@ impl PixelPoints {
 
 /// The camera's ray through a point of the image, as the rasterizer's
 /// projection ([`super::camera_view_proj`]) maps it: image y runs down.
-#[derive(Debug, Clone)]
 struct CameraRays {
     forward: Vec3,
     right: Vec3,
@@ -530,34 +545,16 @@ mod tests {
         // A floor whose left and right halves are two patches, seen from
         // above: every group's weights sum to one and name points on its
         // own patch.
-        let half = |x0: f32, x1: f32| crate::scene::Patch {
-            vertices: vec![
+        // Counter-clockwise seen from above: facing +y.
+        let half = |x0: f32, x1: f32| {
+            [
                 Vec3::new(x0, 0.0, 1.0),
                 Vec3::new(x1, 0.0, 1.0),
                 Vec3::new(x1, 0.0, -1.0),
                 Vec3::new(x0, 0.0, -1.0),
-            ],
-            normal: Vec3::Y,
-            area: 2.0 * (x1 - x0),
-            material: 0,
-            name: String::new(),
-            line: 1,
-            uv: Vec::new(),
-            texture: None,
+            ]
         };
-        let scene = Scene {
-            name: "halves".into(),
-            source: "test".into(),
-            patches: vec![half(-1.0, 0.0), half(0.0, 1.0)],
-            materials: vec![crate::scene::Material {
-                name: "grey".into(),
-                reflectance: Vec3::splat(0.5),
-                emission: Vec3::ZERO,
-            }],
-            camera: None,
-            warnings: vec![],
-            textures: vec![],
-        };
+        let scene = crate::mesh::testutil::scene(&[&half(-1.0, 0.0), &half(0.0, 1.0)]);
         let cam = Camera {
             eye: Vec3::new(0.0, 3.0, 0.0),
             look_at: Vec3::ZERO,
@@ -566,7 +563,7 @@ mod tests {
         };
         let size = (300, 300);
         assert!(reflected_block(size.0, size.1) > 1);
-        let points = PixelPoints::cast(&scene, &cam, size);
+        let points = PixelPoints::cast(&scene, &Occluders::new(&scene), &cam, size);
         assert!(!points.is_empty());
         for g in 0..points.group_patch.len() {
             let range = points.reflected_start[g] as usize..points.reflected_start[g + 1] as usize;

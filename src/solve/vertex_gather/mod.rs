@@ -456,6 +456,11 @@ impl<'a> FinalGather<'a> {
         )
     }
 
+    /// The scene's ray-tracing hierarchy the gather traces its rays in.
+    pub fn occluders(&self) -> &Occluders {
+        &self.gather.occluders
+    }
+
     /// The emitters' direct light at each frame (`direct`), or the light
     /// the other sources reflect there: `sum B_s F V` before the point's
     /// own reflectance, counted on `meter`; `None` when it stops them.

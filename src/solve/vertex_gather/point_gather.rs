@@ -174,7 +174,7 @@ impl Gather<'_> {
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
             let first = c * CHUNK;
             let on_gpu = match &self.gpu_direct {
-                Some(gpu) if direct => gpu.direct(first, chunk),
+                Some(gpu) if direct => gpu.direct(first_stream as usize + first, chunk),
                 _ => None,
             };
             if let Some(values) = on_gpu {
