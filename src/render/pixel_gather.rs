@@ -27,7 +27,7 @@ use super::pixel_samples;
 use crate::formfactor::raytrace::Occluders;
 use crate::output::HdrImage;
 use crate::scene::{Camera, Scene};
-use crate::solve::vertex_gather::{FinalGather, Meter};
+use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
 
 /// Where the final gather shades the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -338,12 +338,21 @@ impl PixelPoints {
         gather: &FinalGather,
         meter: &mut Meter,
     ) -> Option<(HdrImage, (usize, usize))> {
-        let reflected = gather.light_at_points(&self.reflected_frames, false, 0, meter)?;
-        let direct = gather.light_at_points(&self.direct_frames, true, 0, meter)?;
+        let reflected =
+            gather.light_at_points(&self.reflected_frames, PointLight::Reflected, 0, meter)?;
+        // A pixel averages its direct samples: each traces its share of a
+        // point's rays.
+        let (w, h) = (self.width, self.height);
+        let per_pixel = direct_samples(w, h);
+        let light = PointLight::Direct { samples: per_pixel };
+        let direct = gather.light_at_points(&self.direct_frames, light, 0, meter)?;
         let mut samples: Vec<(u32, Vec3)> = self.direct_group.iter().copied().zip(direct).collect();
         let (frames, groups) = self.edge_frames(scene, gather.occluders(), &samples);
         let first = self.direct_frames.len() as u64;
-        let more = gather.light_at_points(&frames, true, first, meter)?;
+        let light = PointLight::Direct {
+            samples: per_pixel + edge_samples(w, h),
+        };
+        let more = gather.light_at_points(&frames, light, first, meter)?;
         samples.extend(groups.into_iter().zip(more));
         let counts = (reflected.len(), samples.len());
         Some((self.image(scene, &reflected, &samples), counts))

@@ -86,9 +86,10 @@ impl GpuDirect {
     }
 
     /// The direct light `sum B F V` over the emitters at `frames`, which
-    /// are points `first..` of the call (their numbers seed the rays);
-    /// `None` when the GPU has failed (now or before).
-    pub(super) fn direct(&self, first: usize, frames: &[Frame]) -> Option<Vec<Vec3>> {
+    /// are points `first..` of the call (their numbers seed the rays), at
+    /// most `rays` rays a light; `None` when the GPU has failed (now or
+    /// before).
+    pub(super) fn direct(&self, first: usize, frames: &[Frame], rays: usize) -> Option<Vec<Vec3>> {
         let mut pass = self.pass.lock().unwrap_or_else(|e| e.into_inner());
         let gpu = pass.as_mut()?;
         let points: Vec<GatherPoint> = frames
@@ -101,7 +102,15 @@ impl GpuDirect {
                 stream: (first + i) as u32,
             })
             .collect();
-        match gpu.gather(&points, &self.emitters, SEED) {
+        let emitters: Vec<GatherSource> = self
+            .emitters
+            .iter()
+            .map(|e| GatherSource {
+                rays: e.rays.min(rays.max(1) as u32),
+                ..*e
+            })
+            .collect();
+        match gpu.gather(&points, &emitters, SEED) {
             Ok(values) => Some(values.into_iter().map(Vec3::from).collect()),
             Err(e) => {
                 *self.failure.lock().unwrap_or_else(|e| e.into_inner()) = Some(format!(

@@ -77,6 +77,21 @@ pub struct VertexGather {
     pub retrace_passes: bool,
 }
 
+/// Which light [`FinalGather::light_at_points`] gathers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PointLight {
+    /// The light the non-emitting sources reflect onto the point.
+    Reflected,
+    /// The emitters' direct light, at points that each stand for one of
+    /// `samples` the image averages (a pixel's): each traces
+    /// [`VertexGather::emitter_rays`] / `samples` rays to a light, at
+    /// least 16, so that the average holds about as many rays as one
+    /// point would. Their shadows' noise is the same, and a pixel across
+    /// a penumbra (which takes the most samples) costs no more rays than
+    /// a vertex does.
+    Direct { samples: u32 },
+}
+
 /// Where the final gather's direct light is gathered.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectLight {
@@ -461,19 +476,18 @@ impl<'a> FinalGather<'a> {
         &self.gather.occluders
     }
 
-    /// The emitters' direct light at each frame (`direct`), or the light
-    /// the other sources reflect there: `sum B_s F V` before the point's
-    /// own reflectance, counted on `meter`; `None` when it stops them.
-    /// Frame `i` traces random stream `first_stream + i` (points gathered
-    /// in two calls take apart streams).
+    /// One kind of light at each frame ([`PointLight`]): `sum B_s F V`
+    /// before the point's own reflectance, counted on `meter`; `None` when
+    /// it stops them. Frame `i` traces random stream `first_stream + i`
+    /// (points gathered in two calls take apart streams).
     pub fn light_at_points(
         &self,
         frames: &[(Vec3, Vec3, u32)],
-        direct: bool,
+        light: PointLight,
         first_stream: u64,
         meter: &mut Meter,
     ) -> Option<Vec<Vec3>> {
-        self.gather.light_at(frames, direct, first_stream, meter)
+        self.gather.light_at(frames, light, first_stream, meter)
     }
 
     /// [`FinalGather::at_points`], counting them on `meter`.

@@ -17,7 +17,8 @@ use super::links::{Links, LINKS_BUDGET};
 use super::receiver::Receiver;
 use super::reflected_cache::{HarmonicDistance, ReflectedCache};
 use super::{
-    is_even, nearest_in_polygon, Frame, Meter, Source, VertexGather, CHUNK, CLOSE_FF, NEAR_RADIUS,
+    is_even, nearest_in_polygon, Frame, Meter, PointLight, Source, VertexGather, CHUNK, CLOSE_FF,
+    NEAR_RADIUS,
 };
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
@@ -156,17 +157,24 @@ impl Gather<'_> {
     }
 
     /// One kind of light at every frame, before its reflectance: the
-    /// emitters' direct light (`direct`) or the rest, the reflected light
-    /// (from the reflected cache where a record is valid). In chunks
-    /// counted on `meter`; `None` when it stops them. Frame `i`'s rays
-    /// follow random stream `first + i`.
+    /// emitters' direct light or the rest, the reflected light (from the
+    /// reflected cache where a record is valid). In chunks counted on
+    /// `meter`; `None` when it stops them. Frame `i`'s rays follow random
+    /// stream `first + i`.
     pub(super) fn light_at(
         &self,
         frames: &[Frame],
-        direct: bool,
+        light: PointLight,
         first_stream: u64,
         meter: &mut Meter,
     ) -> Option<Vec<Vec3>> {
+        let (direct, emitter_rays) = match light {
+            PointLight::Reflected => (false, self.settings.emitter_rays),
+            PointLight::Direct { samples } => {
+                let rays = self.settings.emitter_rays / samples.max(1) as usize;
+                (true, rays.max(16).min(self.settings.emitter_rays))
+            }
+        };
         let wanted = [Sources::REFLECTING, Sources::EMITTING][usize::from(direct)];
         // Streams apart from the display points' and the centres'.
         let stream = (1u64 << 40 | u64::from(direct) << 39) + first_stream;
@@ -174,7 +182,9 @@ impl Gather<'_> {
         for (c, chunk) in frames.chunks(CHUNK).enumerate() {
             let first = c * CHUNK;
             let on_gpu = match &self.gpu_direct {
-                Some(gpu) if direct => gpu.direct(first_stream as usize + first, chunk),
+                Some(gpu) if direct => {
+                    gpu.direct(first_stream as usize + first, chunk, emitter_rays)
+                }
                 _ => None,
             };
             if let Some(values) = on_gpu {
@@ -189,7 +199,13 @@ impl Gather<'_> {
                         }
                     }
                     let mut rng = Pcg32::new(0x005e_ed0f_9a7e, stream + (first + i) as u64);
-                    let g = self.at_point(&Receiver { p, n, patch }, true, wanted, &mut rng, None);
+                    let at = Receiver {
+                        p,
+                        n,
+                        patch,
+                        emitter_rays,
+                    };
+                    let g = self.at_point(&at, true, wanted, &mut rng, None);
                     [g.reflected, g.direct][usize::from(direct)]
                 }));
             }
@@ -226,7 +242,9 @@ impl Gather<'_> {
             };
             // The GPU's share first (unless only records are wanted).
             let direct = match (&self.gpu_direct, record) {
-                (Some(gpu), None | Some(true)) => gpu.direct(first, chunk),
+                (Some(gpu), None | Some(true)) => {
+                    gpu.direct(first, chunk, self.settings.emitter_rays)
+                }
                 _ => None,
             };
             let rho_of = |i: usize, frame: &Frame| match rho {
@@ -319,7 +337,12 @@ impl Gather<'_> {
         // A record is gathered whatever its element's reflectance: a black
         // texel's element lends its light to the white ones beside it.
         if rho.max_element() > 0.0 || record.is_some() {
-            let at = Receiver { p, n, patch };
+            let at = Receiver {
+                p,
+                n,
+                patch,
+                emitter_rays: self.settings.emitter_rays,
+            };
             let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
             let cached = self
                 .reflected_cache
@@ -539,6 +562,7 @@ impl Gather<'_> {
             p: q,
             n: node.normal,
             patch: node.patch,
+            emitter_rays: self.settings.emitter_rays,
         };
         let gathered = self.at_point(&there, false, Sources::ALL, rng, links);
         let emission = material.emission * PI;

@@ -13,6 +13,9 @@ pub(super) struct Receiver {
     pub(super) p: Vec3,
     pub(super) n: Vec3,
     pub(super) patch: u32,
+    /// Rays to a whole emitting node ([`VertexGather::emitter_rays`], or
+    /// fewer where the point is one of several a pixel averages).
+    pub(super) emitter_rays: usize,
 }
 
 impl Receiver {
@@ -42,8 +45,8 @@ impl Receiver {
         let rays = if src.emits {
             // A whole light gets them all, its parts their share (near a
             // light its parts are gathered one by one).
-            ((settings.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
-                .clamp(16, settings.emitter_rays)
+            ((self.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
+                .clamp(self.emitter_rays.min(16), self.emitter_rays)
         } else {
             // Near, the kernel varies across the node and one ray's share
             // is biased; far, it is flat and one ray is as good.
