@@ -11,11 +11,21 @@ peak is above its estimate (the estimate is meant as an upper bound).
     cargo build --release
     python3 bench/memory.py                    # the whole corpus (about 10 min on 2 cores)
     python3 bench/memory.py cornell rfield     # some of it, by name
-    python3 bench/memory.py --large            # add the 95k-polygon field (about 10 min more)
+    python3 bench/memory.py --large            # add the 95k to 204k-polygon scenes
 
 The corpus: the built-in scenes, scenes/*.obj, the public scenes under
-../shared/scenes (when present), and generated letter fields from
-`scenes/generate_scenes.py --scaling` (made in a temporary folder).
+../shared/scenes (when present), and generated letter fields and curved
+surfaces (`field-N`: N letters R; `surfaces-Nk`: a terrain, a sphere and
+a torus of about N thousand triangles) from `scenes/generate_scenes.py
+--scaling` (made in a temporary folder).
+
+A run's gather points are the points the final gather traced rays from:
+the element centres (once: the later Jacobi passes reuse their links),
+then either the display vertices or, when the image is gathered at its
+pixels, the pixels' reflected points that were not taken from the centres
+(`reflected_reuse.gathered`). The pixels' direct-light points are
+recorded beside them (`direct_points`) but not counted: they trace only
+to the emitters.
 """
 import argparse
 import json
@@ -45,10 +55,24 @@ def corpus(scaling_dir, large):
         ("CornellBox-Sphere", os.path.join(SHARED, "mcguire", "CornellBox-Sphere.obj")),
         ("field-12", os.path.join(scaling_dir, "rfield-12.obj")),
         ("field-50", os.path.join(scaling_dir, "rfield-50.obj")),
+        ("surfaces-2k", os.path.join(scaling_dir, "surfaces-2k.obj")),
+        ("surfaces-8k", os.path.join(scaling_dir, "surfaces-8k.obj")),
+        ("surfaces-32k", os.path.join(scaling_dir, "surfaces-32k.obj")),
     ]
     if large:
-        scenes.append(("field-700", os.path.join(scaling_dir, "rfield-700.obj")))
+        for name in ("rfield-700", "rfield-1500", "surfaces-100k", "surfaces-200k"):
+            scenes.append((name.replace("rfield-", "field-"), os.path.join(scaling_dir, name + ".obj")))
     return scenes
+
+
+def gather_points(r):
+    """The points the final gather traced from (see the module text)."""
+    centres = r["mesh"]["elements"] if r.get("gather_passes") else 0
+    pixels = (r.get("image_gathered_at") or {}).get("pixels")
+    if pixels:
+        reuse = r.get("reflected_reuse") or {}
+        return centres + reuse.get("gathered", pixels["reflected_points"])
+    return centres + ((r.get("display_mesh") or {}).get("vertices") or r["mesh"]["vertices"])
 
 
 def run(vkrad, name, scene, out_dir):
@@ -75,10 +99,8 @@ def run(vkrad, name, scene, out_dir):
         "gather_s": r["timing"]["wall_s"].get("gather"),
         "display_vertices": (r.get("display_mesh") or {}).get("vertices"),
         "gather_passes": r.get("gather_passes"),
-        # Points the gather shaded: its passes over the element centres,
-        # then the display vertices (refinement points not counted).
-        "gather_points": (r.get("gather_passes") or 0) * r["mesh"]["elements"]
-        + ((r.get("display_mesh") or {}).get("vertices") or r["mesh"]["vertices"]),
+        "gather_points": gather_points(r),
+        "direct_points": ((r.get("image_gathered_at") or {}).get("pixels") or {}).get("direct_points"),
         "peak_bytes": m["peak_bytes"],
         "estimate_bytes": m["estimate_bytes"],
         "estimate_parts": m["estimate_parts"],
@@ -90,7 +112,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("names", nargs="*", help="scenes of the corpus to run (default: all)")
     ap.add_argument("--vkrad", default=os.path.join(ROOT, "target", "release", "vkrad"))
-    ap.add_argument("--large", action="store_true", help="add the 95,202-polygon field")
+    ap.add_argument("--large", action="store_true", help="add the 95k to 204k-polygon fields and surfaces")
     ap.add_argument("--out", default=os.path.join(HERE, "memory.json"))
     a = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="vkrad-memory-") as tmp:

@@ -33,13 +33,20 @@ def main():
     rows = sorted(runs.values(), key=lambda r: r["patches"])
     for r in rows:
         r["gather_ms_per_point"] = 1000 * 2 * r["gather_s"] / r["gather_points"]  # CPU ms: 2 cores
-    fields = [r for r in rows if r["scene"] in ("field-12", "field-50", "rfield", "field-700")]
-    out = {"runs": rows}
-    if len(fields) >= 2:
-        xs = [r["patches"] for r in fields]
-        out["fit_wall"] = fit(xs, [r["wall_s"] for r in fields])[0]
-        out["fit_gather_per_point"] = fit(xs, [r["gather_ms_per_point"] for r in fields])[0]
-        out["fit_peak"] = fit(xs, [r["peak_bytes"] for r in fields])[0]
+    # The two generated families the growth is fitted over, and their colours.
+    families = {
+        "letter fields": ([r for r in rows if r["scene"] == "rfield" or r["scene"].startswith("field-")], "C0"),
+        "curved surfaces": ([r for r in rows if r["scene"].startswith("surfaces-")], "C2"),
+    }
+    keys = {"wall": "wall_s", "gather_per_point": "gather_ms_per_point", "peak": "peak_bytes"}
+    out = {"runs": rows, "fits": {}}
+    for family, (members, _) in families.items():
+        if len(members) >= 2:
+            xs = [r["patches"] for r in members]
+            out["fits"][family] = {
+                "polygons": [min(xs), max(xs)],
+                **{name: round(fit(xs, [r[key] for r in members])[0], 3) for name, key in keys.items()},
+            }
     json.dump(out, open(os.path.join(HERE, "scenes.json"), "w"), indent=1)
 
     import matplotlib
@@ -48,29 +55,32 @@ def main():
 
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     panels = [
-        ("wall_s", "whole command, seconds", "fit_wall"),
-        ("gather_ms_per_point", "gather CPU ms per point (2 cores)", "fit_gather_per_point"),
-        ("peak_bytes", "peak resident memory, bytes", "fit_peak"),
+        ("wall_s", "whole command, seconds"),
+        ("gather_ms_per_point", "gather CPU ms per traced point (2 cores)"),
+        ("peak_bytes", "peak resident memory, bytes"),
     ]
-    for ax, (key, label, fitkey) in zip(axes, panels):
+    colour = {r["scene"]: c for members, c in families.values() for r in members}
+    for ax, (key, label) in zip(axes, panels):
         for r in rows:
-            field = r in fields
-            ax.loglog(r["patches"], r[key], "o" if field else "s", color="C0" if field else "C1")
+            c = colour.get(r["scene"], "C1")
+            ax.loglog(r["patches"], r[key], "s" if c == "C1" else "o", color=c)
             ax.annotate(r["scene"], (r["patches"], r[key]), fontsize=7, xytext=(3, 3), textcoords="offset points")
-        if fitkey in out:
-            xs = [r["patches"] for r in fields]
-            slope, icpt = fit(xs, [r[key] for r in fields])
+        for family, (members, c) in families.items():
+            if len(members) < 2:
+                continue
+            xs = [r["patches"] for r in members]
+            slope, icpt = fit(xs, [r[key] for r in members])
             lo, hi = min(xs), max(xs)
-            ax.loglog([lo, hi], [math.exp(icpt) * lo ** slope, math.exp(icpt) * hi ** slope], "--", color="C0",
-                      label=f"letter fields: polygons^{slope:.2f}")
-            ax.legend(fontsize=8)
+            ax.loglog([lo, hi], [math.exp(icpt) * lo ** slope, math.exp(icpt) * hi ** slope], "--", color=c,
+                      label=f"{family}: polygons^{slope:.2f}")
+        ax.legend(fontsize=8)
         ax.set_xlabel("input polygons")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
-    fig.suptitle("vkrad at its defaults, 256x256, lavapipe on 2 cores (blue: letter fields; orange: other scenes)")
+    fig.suptitle("vkrad at its defaults, 256x256, lavapipe on 2 cores (blue: letter fields; green: curved surfaces; orange: other scenes)")
     plt.tight_layout()
     plt.savefig(os.path.join(HERE, "scenes.png"), dpi=80)
-    print(json.dumps({k: v for k, v in out.items() if k.startswith("fit")}))
+    print(json.dumps(out["fits"]))
 
 
 if __name__ == "__main__":

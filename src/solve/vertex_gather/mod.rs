@@ -159,12 +159,16 @@ const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 /// Default [`VertexGather::link_error`].
 ///
 /// Measured at 1,000 element centres against the gather with even
-/// clusters only (`cargo bench --bench gather_cost`, each point gathered
-/// twice for the noise): on `rfield` 0.96 ms against 6.7 ms of CPU a point,
-/// a difference of 1.15% rel. RMS where the two estimates' noise alone
-/// gives 1.16%, mean -0.04%; on `curved.obj` 0.36 against 0.89 ms, mean
-/// -0.05%; the Cornell box unchanged.
-pub const LINK_ERROR: f32 = 0.01;
+/// clusters only (`cargo bench --bench gather_cost -- --points 1000`, each
+/// point gathered twice for the noise): on `rfield` 0.96 ms against 5.6 ms
+/// of CPU a point, a difference of 1.28% rel. RMS where the two
+/// estimates' noise alone gives 1.16%, mean +0.21%; on `curved.obj` 0.39
+/// against 0.74 ms, mean -0.04%; the Cornell box unchanged. Against the
+/// path-traced references (`bench/pathtracer/compare.py`, 256x256) 0.1
+/// against 0.01 made `rfield`'s whole run 25.9 s against 35.8 s at the
+/// same lit error (3.48% against 3.49%, bias -0.10% against -0.55%), the
+/// Cornell box's unchanged (1.70%); 0.2 and 0.4 gained no more.
+pub const LINK_ERROR: f32 = 0.1;
 
 /// Default [`VertexGather::reuse`].
 pub const REUSE: f32 = 0.5;
