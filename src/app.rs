@@ -33,7 +33,7 @@ use crate::trace::{cat, span_since, Trace};
 
 mod memory;
 mod report;
-pub use memory::{peak_resident_bytes, EstimatePart, RunEstimate, RunShape, StageLog};
+pub use memory::{peak_resident_bytes, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog};
 pub use report::{write_report, Report};
 
 /// Everything `vkrad SCENE` can be asked to do.
@@ -272,10 +272,13 @@ fn display_request(job: &Job) -> DisplayRequest {
 pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
     let shape = RunShape {
         mesh: mesh_settings(job, scene),
-        display: (job.final_gather.is_some()
-            && job.adaptive == 0
-            && !gathers_at_pixels(job, scene))
-        .then_some(display_request(job)),
+        gather: if gathers_at_pixels(job, scene) {
+            Some(GatherAt::Pixels)
+        } else if job.final_gather.is_some() && job.adaptive == 0 {
+            Some(GatherAt::Vertices(display_request(job)))
+        } else {
+            None
+        },
         size: job.size,
     };
     RunEstimate::new(scene, &shape)

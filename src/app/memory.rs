@@ -5,8 +5,9 @@
 //! The estimate adds what every stage that can grow holds at the peak: the
 //! solve's mesh and state, the discontinuity mesher's GPU visibility
 //! targets, the display mesh (its build, its junction repair, the gather's
-//! values and the render's copies), the gather's ray-tracing tree and the
-//! image. Device memory is counted as host memory: on a CPU device
+//! values and the render's copies), the final gather's own state (its
+//! ray-tracing tree, its sources and clusters, the centres' links; the
+//! pixels' points when the image is gathered at them) and the image. Device memory is counted as host memory: on a CPU device
 //! (lavapipe) it is. The per-item figures were measured on lavapipe
 //! (`python3 bench/memory.py` checks the peak against the estimate on
 //! every scene of the corpus) and rounded up.
@@ -33,6 +34,16 @@ const TREE_BYTES_PER_TRIANGLE: u64 = 160;
 /// for the later ones (1,700 bytes each on `rfield`), up to
 /// [`LINKS_BUDGET`].
 const LINK_BYTES_PER_ELEMENT: u64 = 2048;
+/// Per solved element, besides its links: the gather's sources (a polygon,
+/// its fan and their shares each), clusters and per-centre values. The
+/// gather stage added 3.2 KB an element on `rfield` and 4.0 to 4.4 KB on
+/// the 95k- to 205k-element scenes, links and tree included.
+const GATHER_BYTES_PER_ELEMENT: u64 = 2560;
+/// Per pixel of an image gathered at its pixels: its samples' groups, the
+/// direct light's points (4 a pixel, 16 more across a shadow's edge: 5.1 a
+/// pixel at most over the corpus, about 70 bytes each with their light)
+/// and the reflected light's points and weights.
+const PIXEL_GATHER_BYTES_PER_PIXEL: u64 = 512;
 /// Per display element: its build (triangulations, junction repair's
 /// spatial hash), its vertices' gathered values and caches, and the
 /// render's vertex and colour copies (rfield: 477k elements took 93 MB to
@@ -80,9 +91,18 @@ pub struct RunEstimate {
 #[derive(Debug, Clone, Copy)]
 pub struct RunShape {
     pub mesh: MeshSettings,
-    /// The display mesh asked for (`None`: no final gather).
-    pub display: Option<DisplayRequest>,
+    /// Where the final gather shades the image (`None`: no final gather).
+    pub gather: Option<GatherAt>,
     pub size: (u32, u32),
+}
+
+/// Where the final gather runs, as far as memory goes.
+#[derive(Debug, Clone, Copy)]
+pub enum GatherAt {
+    /// At the vertices of the display mesh asked for.
+    Vertices(DisplayRequest),
+    /// At the image's pixels (no display mesh).
+    Pixels,
 }
 
 impl RunEstimate {
@@ -102,7 +122,11 @@ impl RunEstimate {
                 bytes: mesh.host_bytes.saturating_add(mesh.device_bytes),
             },
         ];
-        let display = shape.display.and_then(|r| r.choice(scene, &shape.mesh));
+        let request = match shape.gather {
+            Some(GatherAt::Vertices(r)) => Some(r),
+            _ => None,
+        };
+        let display = request.and_then(|r| r.choice(scene, &shape.mesh));
         let uses_visibility = matches!(shape.mesh.mesher, Mesher::Discontinuity { .. })
             || display.is_some_and(|(m, _)| matches!(m, Mesher::Discontinuity { .. }));
         if uses_visibility {
@@ -123,23 +147,30 @@ impl RunEstimate {
                         DISPLAY_PER_UNIFORM * floor + DISPLAY_PER_PATCH * scene.patches.len() as u64
                     }
                 });
-        if shape.display.is_some() {
+        let (w, h) = (u64::from(shape.size.0), u64::from(shape.size.1));
+        if let Some(at) = shape.gather {
             let triangles: u64 = scene
                 .patches
                 .iter()
                 .map(|p| p.vertices.len().saturating_sub(2) as u64)
                 .sum();
             let links = (LINK_BYTES_PER_ELEMENT * mesh.elements).min(LINKS_BUDGET as u64);
+            let pixels = match at {
+                GatherAt::Pixels => PIXEL_GATHER_BYTES_PER_PIXEL * w * h,
+                GatherAt::Vertices(_) => 0,
+            };
             parts.push(EstimatePart {
                 stage: "gather",
-                bytes: TREE_BYTES_PER_TRIANGLE * triangles + links,
+                bytes: TREE_BYTES_PER_TRIANGLE * triangles
+                    + links
+                    + GATHER_BYTES_PER_ELEMENT * mesh.elements
+                    + pixels,
             });
         }
         parts.push(EstimatePart {
             stage: "display mesh",
             bytes: DISPLAY_BYTES_PER_ELEMENT * display_elements.unwrap_or(mesh.elements),
         });
-        let (w, h) = (u64::from(shape.size.0), u64::from(shape.size.1));
         // The item buffer that finds the display elements the image shows
         // (its per-element copies fit in the display mesh's share).
         let shown = if display.is_some() {
@@ -221,6 +252,7 @@ impl RunEstimate {
                 "use a larger --display-edge, --display-mesh uniform, or --no-final-gather"
             }
             "mesh" => "use a larger --max-edge (elements grow as 1 / max-edge^2)",
+            "gather" => "use a larger --max-edge (the gather holds about 5 KB a solved element), or --no-final-gather",
             "visibility" => "use a smaller --dm-res",
             "render" => "render a smaller --size",
             _ => "free memory, or use a machine with more",
@@ -289,11 +321,11 @@ mod tests {
                 dm_res: 128,
                 detail: crate::mesh::discontinuity::ShadowDetail::Full,
             },
-            display: Some(DisplayRequest {
+            gather: Some(GatherAt::Vertices(DisplayRequest {
                 edge: None,
                 mesher: display,
                 check: false,
-            }),
+            })),
             size: (256, 256),
         }
     }
@@ -333,6 +365,40 @@ mod tests {
         let built = d.with_display(10);
         assert_eq!(built.display_elements, Some(10));
         assert!(built.total_bytes() < d.total_bytes());
+    }
+
+    #[test]
+    fn an_image_gathered_at_its_pixels_counts_the_gather_and_its_pixels() {
+        // Regression: the pixel path built no display mesh and its estimate
+        // left the gather out, so the 205k-element field peaked at twice
+        // its estimate.
+        let s = scene(&[&unit_square()]);
+        let pixels = RunEstimate::new(
+            &s,
+            &RunShape {
+                gather: Some(GatherAt::Pixels),
+                ..shape(Mesher::Uniform, None)
+            },
+        );
+        let gather = pixels.parts.iter().find(|p| p.stage == "gather").unwrap();
+        let elements = pixels.mesh.elements;
+        assert!(
+            gather.bytes
+                >= GATHER_BYTES_PER_ELEMENT * elements + PIXEL_GATHER_BYTES_PER_PIXEL * 256 * 256
+        );
+        assert!(
+            pixels.display_elements.is_none(),
+            "no display mesh is built"
+        );
+        let none = RunEstimate::new(
+            &s,
+            &RunShape {
+                gather: None,
+                ..shape(Mesher::Uniform, None)
+            },
+        );
+        assert!(none.parts.iter().all(|p| p.stage != "gather"));
+        assert!(none.total_bytes() < pixels.total_bytes());
     }
 
     #[test]
