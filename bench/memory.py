@@ -145,10 +145,14 @@ def main():
         ratio = r["peak_bytes"] / r["estimate_bytes"]
         if ratio > 1:
             over.append(r["scene"])
+        shown = (
+            f"{r['display_elements']:,} ({r['estimated_display_elements'] or 0:,})"
+            if r["display_elements"]
+            else "at the pixels"
+        )
         print(
-            f"| {r['scene']} | {r['patches']:,} | {r['elements']:,} / {r['display_elements'] or 0:,} "
-            f"({r['estimated_display_elements'] or 0:,}) | {r['wall_s']:.1f} s | {mb(r['peak_bytes'])} MB "
-            f"| {mb(r['estimate_bytes'])} MB | {ratio:.2f} |"
+            f"| {r['scene']} | {r['patches']:,} | {r['elements']:,} / {shown} | {r['wall_s']:.1f} s "
+            f"| {mb(r['peak_bytes'])} MB | {mb(r['estimate_bytes'])} MB | {ratio:.2f} |"
         )
     if over:
         print(f"over the estimate or failed: {', '.join(over)}", file=sys.stderr)
