@@ -33,7 +33,9 @@ use crate::trace::{cat, span_since, Trace};
 
 mod memory;
 mod report;
-pub use memory::{peak_resident_bytes, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog};
+pub use memory::{
+    peak_resident_bytes, run_estimate, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog,
+};
 pub use report::{write_report, Report};
 
 /// Everything `vkrad SCENE` can be asked to do.
@@ -266,22 +268,6 @@ fn display_request(job: &Job) -> DisplayRequest {
         mesher: job.display_mesher,
         check: job.check_mesh,
     }
-}
-
-/// What the whole job will hold at its peak, before any of it is built.
-pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
-    let shape = RunShape {
-        mesh: mesh_settings(job, scene),
-        gather: if gathers_at_pixels(job, scene) {
-            Some(GatherAt::Pixels)
-        } else if job.final_gather.is_some() && job.adaptive == 0 {
-            Some(GatherAt::Vertices(display_request(job)))
-        } else {
-            None
-        },
-        size: job.size,
-    };
-    RunEstimate::new(scene, &shape)
 }
 
 /// Whether `job` gathers its image at the pixels ([`Shade`]): only after a

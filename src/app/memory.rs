@@ -12,6 +12,7 @@
 //! (`python3 bench/memory.py` checks the peak against the estimate on
 //! every scene of the corpus) and rounded up.
 
+use super::{display_request, gathers_at_pixels, mesh_settings, Job};
 use crate::error::{Error, Result};
 use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
 use crate::mesh::element_count;
@@ -265,6 +266,22 @@ impl RunEstimate {
             gb(available)
         )))
     }
+}
+
+/// What the whole job will hold at its peak, before any of it is built.
+pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
+    let shape = RunShape {
+        mesh: mesh_settings(job, scene),
+        gather: if gathers_at_pixels(job, scene) {
+            Some(GatherAt::Pixels)
+        } else if job.final_gather.is_some() && job.adaptive == 0 {
+            Some(GatherAt::Vertices(display_request(job)))
+        } else {
+            None
+        },
+        size: job.size,
+    };
+    RunEstimate::new(scene, &shape)
 }
 
 /// The discontinuity mesher's GPU visibility pass: item buffer and depth-
