@@ -7,8 +7,9 @@
 //! targets, the display mesh (its build, its junction repair, the gather's
 //! values and the render's copies), the final gather's own state (its
 //! ray-tracing tree, its sources and clusters, the centres' links; the
-//! pixels' points when the image is gathered at them) and the image. Device memory is counted as host memory: on a CPU device
-//! (lavapipe) it is. The per-item figures were measured on lavapipe
+//! pixels' points when the image is gathered at them) and the image.
+//! Device memory is counted as host memory: on a CPU device (lavapipe) it
+//! is. The per-item figures were measured on lavapipe
 //! (`python3 bench/memory.py` checks the peak against the estimate on
 //! every scene of the corpus) and rounded up.
 
