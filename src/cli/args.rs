@@ -307,6 +307,14 @@ pub(crate) struct RenderArgs {
     /// opened the hierarchy; for comparison).
     #[arg(long)]
     pub(crate) retrace_passes: bool,
+    /// Take the emitters' light on a solved element at its centre, and lend
+    /// it to near points at that one value, instead of averaging it over
+    /// the element and taking it where the gather's rays meet a near
+    /// element (the former way: a floor element half in a letter's shadow
+    /// lends the letter beside it whatever its centre reads; for
+    /// comparison).
+    #[arg(long)]
+    pub(crate) source_means: bool,
     /// Where the final gather shades the image. pixels: at the points each
     /// pixel's samples see (the reflected light once per patch in small
     /// blocks of pixels, the direct light at 4 samples a pixel up to

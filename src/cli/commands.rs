@@ -83,6 +83,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         reuse: args.reflected_reuse,
         direct_light: args.direct_light.direct_light(),
         retrace_passes: args.retrace_passes,
+        lit_samples: !args.source_means,
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

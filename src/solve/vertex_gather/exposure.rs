@@ -13,13 +13,17 @@ use crate::mesh::Mesh;
 use crate::scene::Scene;
 
 /// The part of an element that is not enclosed (the floor under a box is).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub(super) struct ExposedPart {
     /// Share of the element's area.
     pub(super) share: f32,
     /// Centre of that part (the element's centre where all or none of it
     /// is exposed).
     pub(super) centre: Vec3,
+    /// The test's points that are exposed: stratified over the element,
+    /// where the emitters' light on it is averaged
+    /// ([`lit_samples`](super::lit_samples)).
+    pub(super) points: Vec<Vec3>,
 }
 
 /// Points per element side, and directions per point, of the exposure test.
@@ -43,19 +47,19 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
             let sampler = Sampler::new(&corners);
             let (t, b) = tangent_frame(el.normal);
             let mut rng = Pcg32::new(0x00e0_05ed, k as u64);
-            let (mut exposed, mut centre) = (0usize, Vec3::ZERO);
+            let (mut points, mut centre) = (Vec::new(), Vec3::ZERO);
             for i in 0..EXPOSURE_GRID {
                 for j in 0..EXPOSURE_GRID {
                     let u = (i as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
                     let w = (j as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
                     let p = sampler.point(u, w);
                     if !encloses(scene, occluders, p, el.normal, (t, b), &mut rng) {
-                        exposed += 1;
+                        points.push(p);
                         centre += p;
                     }
                 }
             }
-            let all = EXPOSURE_GRID * EXPOSURE_GRID;
+            let (exposed, all) = (points.len(), EXPOSURE_GRID * EXPOSURE_GRID);
             ExposedPart {
                 share: exposed as f32 / all as f32,
                 centre: if exposed > 0 && exposed < all {
@@ -63,6 +67,7 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
                 } else {
                     el.centre
                 },
+                points,
             }
         })
         .collect()

@@ -26,8 +26,14 @@ pub(super) struct Links {
     /// ([`super::point_gather`]'s `beside`), whose reflectance tints the
     /// weight. Reflected light whatever the node.
     tinted: Vec<(u32, Vec3)>,
+    /// `(node, weight)` of a near source lit at its samples
+    /// ([`lit_samples`](super::lit_samples)): the rest of its light (its
+    /// mean less its emitters' part) times `F V`, tinted where reached
+    /// through the point beside a close leaf.
+    rest: Vec<(u32, Vec3)>,
     /// Light that does not change between passes (the emission of a leaf
-    /// looked at beside), reflected.
+    /// looked at beside, the emitters' light on a near source where the
+    /// rays met it), reflected.
     constant: Vec3,
 }
 
@@ -47,6 +53,16 @@ impl Links {
         }
     }
 
+    /// Source `node` was taken lit at its samples: the rest of its light
+    /// with weight `ff`, and the emitters' light `lit` where the rays met
+    /// it (which the passes do not change).
+    pub(super) fn take_lit(&mut self, node: u32, ff: f32, lit: Vec3) {
+        if ff > 0.0 {
+            self.rest.push((node, Vec3::splat(ff)));
+        }
+        self.constant += lit;
+    }
+
     /// Adds `beside`, the links of a point whose value
     /// `emission + rho * (its light)` was taken with weight `weight`.
     pub(super) fn take_beside(&mut self, beside: &Links, emission: Vec3, rho: Vec3, weight: f32) {
@@ -56,6 +72,8 @@ impl Links {
             .extend(beside.plain.iter().map(|&(n, ff)| (n, ff * tint)));
         self.tinted
             .extend(beside.tinted.iter().map(|&(n, w)| (n, w * tint)));
+        self.rest
+            .extend(beside.rest.iter().map(|&(n, w)| (n, w * tint)));
     }
 
     /// The light these links bring from `sources` (their current
@@ -75,6 +93,9 @@ impl Links {
         for &(n, w) in &self.tinted {
             linked.reflected += sources[n as usize].radiosity * w;
         }
+        for &(n, w) in &self.rest {
+            linked.reflected += sources[n as usize].rest() * w;
+        }
         linked
     }
 
@@ -82,12 +103,14 @@ impl Links {
     pub(super) fn bytes(&self) -> usize {
         self.plain.capacity() * std::mem::size_of::<(u32, f32)>()
             + self.tinted.capacity() * std::mem::size_of::<(u32, Vec3)>()
+            + self.rest.capacity() * std::mem::size_of::<(u32, Vec3)>()
     }
 
     /// Frees the spare capacity of the lists.
     pub(super) fn shrink(&mut self) {
         self.plain.shrink_to_fit();
         self.tinted.shrink_to_fit();
+        self.rest.shrink_to_fit();
     }
 }
 

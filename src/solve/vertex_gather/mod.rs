@@ -33,6 +33,7 @@ use self::exposure::{exposed_parts, ExposedPart};
 use self::gpu_direct::GpuDirect;
 use self::links::Links;
 pub use self::links::LINKS_BUDGET;
+use self::lit_samples::{DirectMeans, Emitters};
 use self::point_gather::{Gather, Linking};
 use self::receiver::fan_of;
 use self::reflected_cache::{Record, ReflectedCache};
@@ -75,6 +76,11 @@ pub struct VertexGather {
     /// Trace every Jacobi pass again instead of reusing the first pass's
     /// links ([`links`]): slower, for comparison.
     pub retrace_passes: bool,
+    /// The emitters' light on an element averaged over its exposed part
+    /// for the passes, and taken at each visibility sample of a near
+    /// reflecting source after them ([`lit_samples`]); false: at the
+    /// element's centre, and the source's mean, for comparison.
+    pub lit_samples: bool,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -127,6 +133,7 @@ impl Default for VertexGather {
             reuse: REUSE,
             direct_light: DirectLight::Auto,
             retrace_passes: false,
+            lit_samples: true,
         }
     }
 }
@@ -217,6 +224,25 @@ struct Source {
     emits: bool,
     /// Some of its elements are partly or wholly enclosed (under a box).
     covered: bool,
+    /// The share of `radiosity` that is the emitters' direct light
+    /// reflected (area-weighted mean of `rho D` over its elements, from
+    /// the last Jacobi pass; zero before the passes, when the solve gives
+    /// no such split), and its mean reflectance: a near receiver takes
+    /// the direct part at each of its samples instead ([`lit_samples`]).
+    lit: Vec3,
+    rho: Vec3,
+    /// The emitters' light is even over every element (within
+    /// [`VertexGather::uniformity`] across its samples): its mean serves
+    /// a near receiver as well.
+    lit_even: bool,
+}
+
+impl Source {
+    /// Its light less the emitters' light on it (lent at the samples of a
+    /// near receiver's rays instead).
+    fn rest(&self) -> Vec3 {
+        (self.radiosity - self.lit).max(Vec3::ZERO)
+    }
 }
 
 /// Radiosity at every vertex of `display`, gathered from the element
@@ -353,7 +379,7 @@ impl<'a> FinalGather<'a> {
                 _ => [0.0; 3],
             })
             .collect();
-        let first = sources(scene, solved, tree, &undiluted, &exposed);
+        let first = sources(scene, solved, tree, &undiluted, &exposed, None);
         let roots: Vec<u32> = (0..tree.nodes.len() as u32)
             .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
             .collect();
@@ -369,6 +395,9 @@ impl<'a> FinalGather<'a> {
             reflected_cache: None,
             reused: [AtomicUsize::new(0), AtomicUsize::new(0)],
             gpu_direct: None,
+            lit_samples: false,
+            emitters: Emitters::default(),
+            direct_map: None,
         };
         let mut gpu_refused = None;
         let on_gpu = |device: &Device| match settings.direct_light {
@@ -401,6 +430,19 @@ impl<'a> FinalGather<'a> {
         // sparse products over them ([`links`]). With the reflected cache,
         // the first pass also measures how far each centre's light holds,
         // and the cache's records take their light from the final sources.
+        // The emitters' light on each element, averaged over its exposed
+        // part, and lent at their samples by near sources
+        // ([`lit_samples`]); without, each centre gathers its own. Without
+        // passes the sources keep the light they were given.
+        let direct_means = (settings.lit_samples && settings.source_passes > 0).then(|| {
+            gather.emitters = Emitters::new(&gather, &roots);
+            let means = Arc::new(gather.direct_means(solved, &exposed));
+            let lit = Some((&*means, &gather.element_rho[..]));
+            gather.sources = sources(scene, solved, tree, &undiluted, &exposed, lit);
+            gather.lit_samples = true;
+            gather.direct_map = Some(Arc::clone(&means));
+            means
+        });
         let mut links: Vec<Option<Links>> = Vec::new();
         let mut reach: Option<Vec<f32>> = None;
         let record = (settings.reuse > 0.0).then_some(true);
@@ -413,7 +455,8 @@ impl<'a> FinalGather<'a> {
             // Only the first pass measures how far the light holds.
             let measure = record.filter(|_| pass == 0);
             let rho = Some(&gather.element_rho[..]);
-            let gathered = gather.gather_points(&frames, rho, measure, linking, meter)?;
+            let known = direct_means.as_ref().map(|m| &m.mean[..]);
+            let gathered = gather.gather_points(&frames, rho, measure, linking, known, meter)?;
             if measure.is_some() {
                 reach = Some(gathered.iter().map(|(_, g)| g.reach()).collect());
             }
@@ -423,7 +466,10 @@ impl<'a> FinalGather<'a> {
                     *b = [0.0; 3];
                 }
             }
-            gather.sources = sources(scene, solved, tree, &corrected, &exposed);
+            let lit = direct_means
+                .as_ref()
+                .map(|m| (&**m, &gather.element_rho[..]));
+            gather.sources = sources(scene, solved, tree, &corrected, &exposed, lit);
             gather.clusters.relight(&gather.sources);
             gather.emitters_to_gpu(&roots, &mut gpu_refused);
         }
@@ -437,6 +483,7 @@ impl<'a> FinalGather<'a> {
                 Some(&gather.element_rho),
                 Some(false),
                 linking,
+                None,
                 meter,
             )?;
             let reach = reach.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.reach()).collect());
@@ -557,6 +604,7 @@ fn sources(
     tree: &ShooterTree,
     radiosity: &[[f32; 3]],
     exposed: &[ExposedPart],
+    lit: Option<(&DirectMeans, &[Vec3])>,
 ) -> Vec<Source> {
     // Parents come before their children in the tree.
     let mut patch_area = vec![0.0f32; tree.nodes.len()];
@@ -573,6 +621,8 @@ fn sources(
             let (mut sum, mut area) = (Vec3::ZERO, 0.0f32);
             let (mut lo, mut hi) = (f32::INFINITY, 0.0f32);
             let mut covered = false;
+            let (mut lit_sum, mut rho_sum) = (Vec3::ZERO, Vec3::ZERO);
+            let mut lit_even = true;
             for &e in tree.elements(n as u32) {
                 covered |= exposed[e as usize].share < 1.0;
                 // Means over the exposed area: the covered part is dark
@@ -585,6 +635,12 @@ fn sources(
                 let a = mesh.elements[e as usize].area * share;
                 sum += b * a;
                 area += a;
+                if let Some((direct, rho)) = lit {
+                    let rho = rho[e as usize];
+                    lit_sum += rho * direct.mean[e as usize] * a;
+                    lit_even &= direct.even[e as usize];
+                    rho_sum += rho * a;
+                }
                 let level = b.x + b.y + b.z;
                 lo = lo.min(level);
                 hi = hi.max(level);
@@ -603,6 +659,17 @@ fn sources(
                 hi,
                 emits: scene.patch_material(node.patch).is_emitter(),
                 covered,
+                lit: if area > 0.0 {
+                    lit_sum / area
+                } else {
+                    Vec3::ZERO
+                },
+                lit_even,
+                rho: if area > 0.0 {
+                    rho_sum / area
+                } else {
+                    Vec3::ZERO
+                },
             }
         })
         .collect()
@@ -613,6 +680,7 @@ pub mod display;
 mod exposure;
 mod gpu_direct;
 mod links;
+mod lit_samples;
 mod point_gather;
 mod receiver;
 pub mod refine;

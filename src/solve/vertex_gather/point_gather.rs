@@ -6,6 +6,7 @@
 
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -14,6 +15,7 @@ use super::clusters::Clusters;
 use super::exposure;
 use super::gpu_direct::GpuDirect;
 use super::links::{Links, LINKS_BUDGET};
+use super::lit_samples::{DirectMeans, Emitters, POINT_RAYS};
 use super::receiver::Receiver;
 use super::reflected_cache::{HarmonicDistance, ReflectedCache};
 use super::{
@@ -48,6 +50,13 @@ pub(super) struct Gather<'a> {
     pub(super) reused: [AtomicUsize; 2],
     /// The direct light's pass on the GPU, when asked for.
     pub(super) gpu_direct: Option<GpuDirect>,
+    /// Near reflecting sources lend the emitters' light at their samples
+    /// ([`lit_samples`](super::lit_samples); after the passes), and the
+    /// emitters they trace to.
+    pub(super) lit_samples: bool,
+    pub(super) emitters: Emitters,
+    /// The direct light on each element, at its exposed points.
+    pub(super) direct_map: Option<Arc<DirectMeans>>,
 }
 
 /// What a gather does with the points' links ([`Links`]).
@@ -93,7 +102,7 @@ impl Sources {
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Gathered {
     /// Sum of B F V over emitting sources.
-    direct: Vec3,
+    pub(super) direct: Vec3,
     /// ... and over the others.
     pub(super) reflected: Vec3,
     /// How far the reflecting sources are.
@@ -152,7 +161,7 @@ impl Gather<'_> {
         rho: Option<&[Vec3]>,
         meter: &mut Meter,
     ) -> Option<Vec<[f32; 3]>> {
-        let gathered = self.gather_points(frames, rho, None, Linking::None, meter)?;
+        let gathered = self.gather_points(frames, rho, None, Linking::None, None, meter)?;
         Some(gathered.into_iter().map(|(b, _)| b.to_array()).collect())
     }
 
@@ -219,13 +228,16 @@ impl Gather<'_> {
     /// [`Self::at_points`] with each point's gathered light by kind;
     /// `record`: measure how far each one's reflected light holds, and
     /// (`Some(false)`) gather only that. `linking`: record each point's
-    /// links, or take the light from them where recorded.
+    /// links, or take the light from them where recorded. `direct`: each
+    /// point's direct light, known already (then only the rest is
+    /// gathered).
     pub(super) fn gather_points(
         &self,
         frames: &[Frame],
         rho: Option<&[Vec3]>,
         record: Option<bool>,
         mut linking: Linking,
+        known_direct: Option<&[Vec3]>,
         meter: &mut Meter,
     ) -> Option<Vec<(Vec3, Gathered)>> {
         let mut out = Vec::with_capacity(frames.len());
@@ -241,8 +253,9 @@ impl Gather<'_> {
                 _ => None,
             };
             // The GPU's share first (unless only records are wanted).
-            let direct = match (&self.gpu_direct, record) {
-                (Some(gpu), None | Some(true)) => {
+            let direct = match (known_direct, &self.gpu_direct, record) {
+                (Some(known), _, _) => Some(known[first..first + chunk.len()].to_vec()),
+                (None, Some(gpu), None | Some(true)) => {
                     gpu.direct(first, chunk, self.settings.emitter_rays)
                 }
                 _ => None,
@@ -478,8 +491,39 @@ impl Gather<'_> {
                 stack.extend_from_slice(&node.children);
                 continue;
             }
-            let ff = at.form_factor(src, near, &self.occluders, settings, rng);
-            let mut radiosity = src.radiosity;
+            // Near, the emitters' light on the source is taken where the
+            // rays meet it; the rest of its light at its mean.
+            let lit_here = self.lit_samples
+                && near
+                && !src.emits
+                && !src.lit_even
+                && src.rho.max_element() > 0.0;
+            let (ff, lit) = match lit_here {
+                true => {
+                    // The direct light at the nearest exposed point of the
+                    // leaf under the sample; traced where there is none.
+                    let (normal, patch) = (node.normal, node.patch);
+                    let mapped = |y: Vec3| {
+                        let map = self.direct_map.as_ref()?;
+                        map.at(self.leaf_under(n, y)?, y)
+                    };
+                    let (ff, lit) =
+                        at.form_factor_lit(src, near, &self.occluders, settings, rng, |y, rng| {
+                            mapped(y).unwrap_or_else(|| {
+                                self.direct_at(y, normal, patch, POINT_RAYS, rng)
+                            })
+                        });
+                    (ff, src.rho * lit)
+                }
+                false => (
+                    at.form_factor(src, near, &self.occluders, settings, rng),
+                    Vec3::ZERO,
+                ),
+            };
+            let mut radiosity = match lit_here {
+                true => src.rest(),
+                false => src.radiosity,
+            };
             let mut kept = 1.0;
             if look_beside && node.children.is_empty() && !src.emits && ff > CLOSE_FF.0 {
                 let mut there = links.is_some().then(Links::default);
@@ -493,12 +537,15 @@ impl Gather<'_> {
                 }
             }
             if let Some(links) = links.as_deref_mut() {
-                links.take(n, ff * kept);
+                match lit_here {
+                    true => links.take_lit(n, ff * kept, kept * lit),
+                    false => links.take(n, ff * kept),
+                }
             }
             if src.emits {
                 gathered.direct += radiosity * ff;
             } else {
-                gathered.reflected += radiosity * ff;
+                gathered.reflected += radiosity * ff + kept * lit;
                 if wanted.record {
                     gathered.distance.add(ff, nearest);
                 }

@@ -38,20 +38,16 @@ impl Receiver {
         settings: &VertexGather,
         rng: &mut Pcg32,
     ) -> f32 {
-        let exact = point_to_polygon(self.p.as_dvec3(), self.n.as_dvec3(), &src.polygon) as f32;
-        if exact.is_nan() || exact <= 0.0 {
+        let Some(exact) = self.unoccluded(src) else {
             return 0.0;
-        }
+        };
         let rays = if src.emits {
             // A whole light gets them all, its parts their share (near a
             // light its parts are gathered one by one).
             ((self.emitter_rays as f32 * src.share_of_patch).ceil() as usize)
                 .clamp(self.emitter_rays.min(16), self.emitter_rays)
         } else {
-            // Near, the kernel varies across the node and one ray's share
-            // is biased; far, it is flat and one ray is as good.
-            let fewest = if near { MIN_REFLECTOR_RAYS } else { 1 };
-            ((exact * 128.0).ceil() as usize).clamp(fewest, settings.reflector_rays)
+            reflector_rays(exact, near, settings)
         };
         // A light wholly seen or wholly hidden by a first, coarse set of
         // rays is taken as such: only penumbrae pay for the full count.
@@ -78,6 +74,39 @@ impl Receiver {
         exact * (seen / all)
     }
 
+    /// [`Self::form_factor`] of a reflecting source, and beside it the
+    /// same integral of `lit(y)`, a light that varies across the source:
+    /// `F * sum_k w_k V_k lit(y_k) / sum_k w_k` over the samples `y_k`
+    /// ([`lit_samples`](super::lit_samples)).
+    pub(super) fn form_factor_lit(
+        &self,
+        src: &Source,
+        near: bool,
+        occluders: &Occluders,
+        settings: &VertexGather,
+        rng: &mut Pcg32,
+        mut lit: impl FnMut(Vec3, &mut Pcg32) -> Vec3,
+    ) -> (f32, Vec3) {
+        let Some(exact) = self.unoccluded(src) else {
+            return (0.0, Vec3::ZERO);
+        };
+        let rays = reflector_rays(exact, near, settings);
+        let mut sum = Vec3::ZERO;
+        let (seen, all) = self.samples_seen(rays, src, occluders, rng, |y, term, rng| {
+            sum += term * lit(y, rng);
+        });
+        if all <= 0.0 {
+            return (0.0, Vec3::ZERO);
+        }
+        (exact * (seen / all), exact * sum / all)
+    }
+
+    /// The exact unoccluded form factor to `src`, where it is above 0.
+    fn unoccluded(&self, src: &Source) -> Option<f32> {
+        let exact = point_to_polygon(self.p.as_dvec3(), self.n.as_dvec3(), &src.polygon) as f32;
+        (exact > 0.0).then_some(exact)
+    }
+
     /// How many of `src`'s corners in front of the receiver it sees (each
     /// taken a hair inside the polygon), and how many are in front.
     fn corners_visible(&self, src: &Source, occluders: &Occluders) -> (usize, usize) {
@@ -99,12 +128,25 @@ impl Receiver {
 
     /// Kernel-weighted visible and total weight of `rays` stratified rays
     /// to points of `src`.
-    fn visible_weight(
+    pub(super) fn visible_weight(
         &self,
         rays: usize,
         src: &Source,
         occluders: &Occluders,
         rng: &mut Pcg32,
+    ) -> (f32, f32) {
+        self.samples_seen(rays, src, occluders, rng, |_, _, _| {})
+    }
+
+    /// [`Self::visible_weight`], calling `seen(point, weight, rng)` for
+    /// each sample the receiver sees.
+    fn samples_seen(
+        &self,
+        rays: usize,
+        src: &Source,
+        occluders: &Occluders,
+        rng: &mut Pcg32,
+        mut seen_at: impl FnMut(Vec3, f32, &mut Pcg32),
     ) -> (f32, f32) {
         // Samples fall on the part of the source in front of the receiver:
         // a source half behind it (the floor element under a box's
@@ -143,11 +185,21 @@ impl Receiver {
                 all += term;
                 if occluders.visible(self.p, x, [self.patch, src.patch]) {
                     seen += term;
+                    seen_at(x, term, rng);
                 }
             }
         }
         (seen, all)
     }
+}
+
+/// Rays to a reflecting node of unoccluded form factor `exact`: one per
+/// 1/128 of it, up to [`VertexGather::reflector_rays`]. Near, the kernel
+/// varies across the node and one ray's share is biased; far, it is flat
+/// and one ray is as good.
+fn reflector_rays(exact: f32, near: bool, settings: &VertexGather) -> usize {
+    let fewest = if near { MIN_REFLECTOR_RAYS } else { 1 };
+    ((exact * 128.0).ceil() as usize).clamp(fewest, settings.reflector_rays)
 }
 
 /// A convex polygon's fan triangles from its corner 0 and their

@@ -603,9 +603,13 @@ fn with_and_without_reuse(
     passes: usize,
 ) -> Compared {
     let tree = ShooterTree::new(s, mesh);
+    // The sources keep the smooth light the test gives them: lit at the
+    // samples a point's rays meet, a near source would show the light's
+    // own shadows instead, whose detail the records do not hold.
     let reusing = VertexGather {
         source_passes: passes,
         reuse: 0.5,
+        lit_samples: false,
         ..VertexGather::default()
     };
     let with = FinalGather::new(s, mesh, &tree, b, &reusing);
@@ -757,4 +761,52 @@ fn a_light_hung_under_the_ceiling_keeps_the_ceiling_beside_it_gathered() {
             w[0]
         );
     }
+}
+
+#[test]
+fn a_panel_over_the_floor_sees_its_own_shadow_under_it() {
+    // A panel hung low over the floor, facing it, casts its shadow on the
+    // floor below; on a coarse solve one floor element (1 unit) holds
+    // that shadow and the lit floor past it. Lit at the samples its rays
+    // meet, the element lends the panel the shadow it sees under it; at
+    // its mean, the light of the whole element. Judged against the same
+    // gather from a fine solve (elements of 0.05), where a mean is as
+    // good as a sample.
+    let square = |x0: f32, x1: f32, z0: f32, z1: f32, y: f32| {
+        vec![
+            Vec3::new(x0, y, z0),
+            Vec3::new(x1, y, z0),
+            Vec3::new(x1, y, z1),
+            Vec3::new(x0, y, z1),
+        ]
+    };
+    let floor = facing(square(-2.0, 2.0, -2.0, 2.0, 0.0), Vec3::Y);
+    let light = facing(square(-0.5, 0.5, -0.5, 0.5, 2.0), Vec3::ZERO);
+    let panel = facing(square(0.2, 1.0, -0.4, 0.4, 0.3), Vec3::ZERO);
+    let mut s = scene(&[&floor, &light, &panel]);
+    s.materials = vec![material(0.5, 0.0), material(0.0, 1.0)];
+    s.patches[1].material = 1;
+    let at = [(Vec3::new(0.7, 0.3, 0.25), -Vec3::Y, 2)];
+    let gathered = |edge: f32, lit_samples: bool| {
+        let mesh = uniform(&s, edge);
+        let tree = ShooterTree::new(&s, &mesh);
+        let settings = VertexGather {
+            source_passes: 1,
+            lit_samples,
+            ..VertexGather::default()
+        };
+        let b = lit_by_the_light_alone(&mesh);
+        FinalGather::new(&s, &mesh, &tree, &b, &settings).at_points(&at)[0][0]
+    };
+    let fine = gathered(0.05, false);
+    let (lit, means) = (gathered(1.0, true), gathered(1.0, false));
+    eprintln!("fine {fine}, coarse lit at samples {lit}, at means {means}");
+    assert!(
+        (lit - fine).abs() < 0.1 * fine,
+        "lit at samples {lit} against {fine}"
+    );
+    assert!(
+        (lit - fine).abs() < 0.5 * (means - fine).abs(),
+        "lit at samples {lit}, at means {means}, against {fine}"
+    );
 }
