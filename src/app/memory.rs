@@ -37,10 +37,13 @@ const TREE_BYTES_PER_TRIANGLE: u64 = 160;
 /// [`LINKS_BUDGET`].
 const LINK_BYTES_PER_ELEMENT: u64 = 2048;
 /// Per solved element, besides its links: the gather's sources (a polygon,
-/// its fan and their shares each), clusters and per-centre values. The
-/// gather stage added 3.2 KB an element on `rfield` and 4.0 to 4.4 KB on
-/// the 95k- to 205k-element scenes, links and tree included.
-const GATHER_BYTES_PER_ELEMENT: u64 = 2560;
+/// its fan and their shares each), clusters, per-centre values and the
+/// direct light at its exposed points (16 points and values, kept for the
+/// near sources lit at their samples). The gather stage added 3.2 KB an
+/// element on `rfield` and 4.0 to 4.4 KB on the 95k- to 205k-element
+/// scenes, links and tree included, before the direct light's points
+/// (which took `rfield`'s peak from 227 to 250 MB: 0.9 KB an element).
+const GATHER_BYTES_PER_ELEMENT: u64 = 3584;
 /// Per pixel of an image gathered at its pixels: its samples' groups, the
 /// direct light's points (4 a pixel, 16 more across a shadow's edge: 5.1 a
 /// pixel at most over the corpus, about 70 bytes each with their light)
@@ -254,7 +257,7 @@ impl RunEstimate {
                 "use a larger --display-edge, --display-mesh uniform, or --no-final-gather"
             }
             "mesh" => "use a larger --max-edge (elements grow as 1 / max-edge^2)",
-            "gather" => "use a larger --max-edge (the gather holds about 5 KB a solved element), or --no-final-gather",
+            "gather" => "use a larger --max-edge (the gather holds about 6 KB a solved element), or --no-final-gather",
             "visibility" => "use a smaller --dm-res",
             "render" => "render a smaller --size",
             _ => "free memory, or use a machine with more",
