@@ -32,9 +32,12 @@ pub(super) struct Links {
     /// through the point beside a close leaf.
     rest: Vec<(u32, Vec3)>,
     /// Light that does not change between passes (the emission of a leaf
-    /// looked at beside, the emitters' light on a near source where the
-    /// rays met it), reflected.
+    /// looked at beside), reflected.
     constant: Vec3,
+    /// The emitters' light on near sources where the rays met them,
+    /// reflected: it follows the emitters' own light, which the passes
+    /// change only by what the emitters reflect.
+    lit: Vec3,
 }
 
 /// The light of a point's links by kind: from emitting sources and from
@@ -60,7 +63,7 @@ impl Links {
         if ff > 0.0 {
             self.rest.push((node, Vec3::splat(ff)));
         }
-        self.constant += lit;
+        self.lit += lit;
     }
 
     /// Adds `beside`, the links of a point whose value
@@ -68,6 +71,7 @@ impl Links {
     pub(super) fn take_beside(&mut self, beside: &Links, emission: Vec3, rho: Vec3, weight: f32) {
         let tint = weight * rho;
         self.constant += weight * emission + tint * beside.constant;
+        self.lit += tint * beside.lit;
         self.tinted
             .extend(beside.plain.iter().map(|&(n, ff)| (n, ff * tint)));
         self.tinted
@@ -77,10 +81,11 @@ impl Links {
     }
 
     /// The light these links bring from `sources` (their current
-    /// radiosity).
-    pub(super) fn evaluate(&self, sources: &[Source]) -> Linked {
+    /// radiosity), the emitters' light having grown by `direct_scale`
+    /// since the links were recorded.
+    pub(super) fn evaluate(&self, sources: &[Source], direct_scale: Vec3) -> Linked {
         let mut linked = Linked {
-            reflected: self.constant,
+            reflected: self.constant + self.lit * direct_scale,
             ..Linked::default()
         };
         for &(n, ff) in &self.plain {

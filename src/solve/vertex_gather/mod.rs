@@ -398,6 +398,7 @@ impl<'a> FinalGather<'a> {
             lit_samples: false,
             emitters: Emitters::default(),
             direct_map: None,
+            direct_scale: Vec3::ONE,
         };
         let mut gpu_refused = None;
         let on_gpu = |device: &Device| match settings.direct_light {
@@ -455,7 +456,10 @@ impl<'a> FinalGather<'a> {
             // Only the first pass measures how far the light holds.
             let measure = record.filter(|_| pass == 0);
             let rho = Some(&gather.element_rho[..]);
-            let known = direct_means.as_ref().map(|m| &m.mean[..]);
+            let known: Option<Vec<Vec3>> = direct_means
+                .as_ref()
+                .map(|m| m.mean.iter().map(|&d| d * gather.direct_scale).collect());
+            let known = known.as_deref();
             let gathered = gather.gather_points(&frames, rho, measure, linking, known, meter)?;
             if measure.is_some() {
                 reach = Some(gathered.iter().map(|(_, g)| g.reach()).collect());
@@ -470,6 +474,9 @@ impl<'a> FinalGather<'a> {
                 .as_ref()
                 .map(|m| (&**m, &gather.element_rho[..]));
             gather.sources = sources(scene, solved, tree, &corrected, &exposed, lit);
+            if let Some(means) = &direct_means {
+                gather.follow_emitters(means);
+            }
             gather.clusters.relight(&gather.sources);
             gather.emitters_to_gpu(&roots, &mut gpu_refused);
         }

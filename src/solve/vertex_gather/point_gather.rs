@@ -55,8 +55,10 @@ pub(super) struct Gather<'a> {
     /// emitters they trace to.
     pub(super) lit_samples: bool,
     pub(super) emitters: Emitters,
-    /// The direct light on each element, at its exposed points.
+    /// The direct light on each element, at its exposed points, and how
+    /// much the emitters' light has grown since (by what they reflect).
     pub(super) direct_map: Option<Arc<DirectMeans>>,
+    pub(super) direct_scale: Vec3,
 }
 
 /// What a gather does with the points' links ([`Links`]).
@@ -317,7 +319,7 @@ impl Gather<'_> {
         let Some(surface) = self.scene.patches.get(patch as usize) else {
             return (Vec3::ZERO, Gathered::default());
         };
-        let linked = links.evaluate(&self.sources);
+        let linked = links.evaluate(&self.sources, self.direct_scale);
         let gathered = Gathered {
             direct: direct.unwrap_or(linked.direct),
             reflected: linked.reflected,
@@ -505,7 +507,7 @@ impl Gather<'_> {
                     let (normal, patch) = (node.normal, node.patch);
                     let mapped = |y: Vec3| {
                         let map = self.direct_map.as_ref()?;
-                        map.at(self.leaf_under(n, y)?, y)
+                        Some(map.at(self.leaf_under(n, y)?, y)? * self.direct_scale)
                     };
                     let (ff, lit) =
                         at.form_factor_lit(src, near, &self.occluders, settings, rng, |y, rng| {
