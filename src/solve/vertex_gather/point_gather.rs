@@ -20,7 +20,7 @@ use super::receiver::Receiver;
 use super::reflected_cache::{HarmonicDistance, ReflectedCache};
 use super::{
     is_even, nearest_in_polygon, Frame, Meter, PointLight, Source, VertexGather, CHUNK, CLOSE_FF,
-    NEAR_RADIUS,
+    NEAR_RADIUS, PIXEL_EMITTER_RAYS,
 };
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
@@ -182,7 +182,7 @@ impl Gather<'_> {
         let (direct, emitter_rays) = match light {
             PointLight::Reflected => (false, self.settings.emitter_rays),
             PointLight::Direct { samples } => {
-                let rays = self.settings.emitter_rays / samples.max(1) as usize;
+                let rays = PIXEL_EMITTER_RAYS / samples.max(1) as usize;
                 (true, rays.max(16).min(self.settings.emitter_rays))
             }
         };
