@@ -8,6 +8,7 @@ use crate::formfactor::sampling::Pcg32;
 use crate::mesh::testutil::scene;
 use crate::mesh::uniform;
 use crate::scene::Material;
+use glam::DVec3;
 
 /// `corners` ordered so that the polygon faces `towards`.
 fn facing(mut corners: Vec<Vec3>, towards: Vec3) -> Vec<Vec3> {
