@@ -39,7 +39,6 @@ use super::exposure::ExposedPart;
 use super::is_even;
 use super::point_gather::Gather;
 use super::receiver::Receiver;
-use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::sampling::Pcg32;
 use crate::mesh::Mesh;
 
@@ -218,10 +217,9 @@ impl Gather<'_> {
         };
         let one = |e: u32, rng: &mut Pcg32| {
             let src = &self.sources[e as usize];
-            let exact = point_to_polygon(y.as_dvec3(), n.as_dvec3(), &src.polygon) as f32;
-            if exact.is_nan() || exact <= 0.0 {
+            let Some(exact) = at.unoccluded(src) else {
                 return Vec3::ZERO;
-            }
+            };
             let (seen, all) = at.visible_weight(rays, src, &self.occluders, rng);
             match all > 0.0 {
                 true => src.radiosity * exact * (seen / all),

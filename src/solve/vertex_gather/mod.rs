@@ -368,7 +368,6 @@ impl<'a> FinalGather<'a> {
             reflected_cache: None,
             reused: [AtomicUsize::new(0), AtomicUsize::new(0)],
             gpu_direct: None,
-            lit_samples: false,
             emitters: Emitters::default(),
             direct_map: None,
             direct_scale: Vec3::ONE,
@@ -413,7 +412,6 @@ impl<'a> FinalGather<'a> {
             let means = Arc::new(gather.direct_means(solved, &exposed));
             let lit = Some((&*means, &gather.element_rho[..]));
             gather.sources = sources(scene, solved, tree, &undiluted, &exposed, lit);
-            gather.lit_samples = true;
             gather.direct_map = Some(Arc::clone(&means));
             means
         });

@@ -50,13 +50,12 @@ pub(super) struct Gather<'a> {
     pub(super) reused: [AtomicUsize; 2],
     /// The direct light's pass on the GPU, when asked for.
     pub(super) gpu_direct: Option<GpuDirect>,
-    /// Near reflecting sources lend the emitters' light at their samples
-    /// ([`lit_samples`](super::lit_samples); after the passes), and the
-    /// emitters they trace to.
-    pub(super) lit_samples: bool,
+    /// The emitters a point's direct light is traced to where no exposed
+    /// point holds it ([`lit_samples`](super::lit_samples)).
     pub(super) emitters: Emitters,
-    /// The direct light on each element, at its exposed points, and how
-    /// much the emitters' light has grown since (by what they reflect).
+    /// The direct light on each element, at its exposed points (`Some`:
+    /// near reflecting sources lend it at their samples), and how much the
+    /// emitters' light has grown since (by what they reflect).
     pub(super) direct_map: Option<Arc<DirectMeans>>,
     pub(super) direct_scale: Vec3,
 }
@@ -495,7 +494,7 @@ impl Gather<'_> {
             }
             // Near, the emitters' light on the source is taken where the
             // rays meet it; the rest of its light at its mean.
-            let lit_here = self.lit_samples
+            let lit_here = self.direct_map.is_some()
                 && near
                 && !src.emits
                 && !src.lit_even

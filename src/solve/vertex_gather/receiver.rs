@@ -102,7 +102,7 @@ impl Receiver {
     }
 
     /// The exact unoccluded form factor to `src`, where it is above 0.
-    fn unoccluded(&self, src: &Source) -> Option<f32> {
+    pub(super) fn unoccluded(&self, src: &Source) -> Option<f32> {
         let exact = point_to_polygon(self.p.as_dvec3(), self.n.as_dvec3(), &src.polygon) as f32;
         (exact > 0.0).then_some(exact)
     }
