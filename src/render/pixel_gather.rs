@@ -60,10 +60,12 @@ impl Shade {
 /// direct light may change within a pixel (a shadow's edge crosses it)
 /// and is gathered at each of the pixel's direct samples
 /// ([`direct_samples`]) that meet the group's patch. The light the other
-/// surfaces reflect varies slowly: it is gathered once per patch in each
-/// block of [`reflected_block`]² pixels, at the mean point of the block's
-/// samples on it, and each group takes it bilinearly from the blocks
-/// around its pixel that show its patch.
+/// surfaces reflect varies slowly: it is gathered once per smooth surface
+/// ([`Scene::smooth_surfaces`]: a tessellated curve or a face split in
+/// pieces is one) in each block of [`reflected_block`]² pixels, at the
+/// mean point of the block's samples on the patch of that surface most of
+/// them meet, and each group takes it bilinearly from the blocks around
+/// its pixel that show its surface.
 #[derive(Debug, Clone)]
 pub struct PixelPoints {
     width: u32,
@@ -81,7 +83,8 @@ pub struct PixelPoints {
     /// and the group of each.
     direct_frames: Vec<(Vec3, Vec3, u32)>,
     direct_group: Vec<u32>,
-    /// Where the reflected light is gathered: one point per (block, patch).
+    /// Where the reflected light is gathered: one point per (block,
+    /// smooth surface).
     reflected_frames: Vec<(Vec3, Vec3, u32)>,
     /// Per group, `reflected_start[g]..reflected_start[g + 1]` of
     /// `reflected_weights`: (index into reflected_frames, weight).
@@ -164,8 +167,11 @@ fn front_hit(
     (scene.patches[patch as usize].normal.dot(d) < 0.0).then(|| (patch, eye + t * d))
 }
 
-/// A pixel's patches: (patch, sum of hit points, samples) each.
-type Groups = Vec<(u32, Vec3, u32)>;
+/// A patch's samples in a pixel or block: (patch, sum of hit points,
+/// samples).
+type Group = (u32, Vec3, u32);
+/// A pixel's patches.
+type Groups = Vec<Group>;
 
 impl PixelPoints {
     /// Casts every pixel's samples through `camera` into `scene`, whose
@@ -199,8 +205,11 @@ impl PixelPoints {
             .collect();
         let k = reflected_block(w, h);
         let (bw, bh) = (w.div_ceil(k), h.div_ceil(k));
-        // Per (block, patch): the sum of its samples' points and their count.
-        let mut blocks: HashMap<(u32, u32), (Vec3, u32)> = HashMap::new();
+        // Reflected light is shared across the patches of a smooth surface.
+        let surface = scene.smooth_surfaces();
+        // Per (block, surface), per patch: the sum of its samples' points
+        // and their count.
+        let mut blocks: HashMap<(u32, u32), Groups> = HashMap::new();
         let mut points = PixelPoints {
             width: w,
             height: h,
@@ -224,9 +233,14 @@ impl PixelPoints {
                 points.group_patch.push(patch);
                 points.group_pixel.push(p as u32);
                 points.shares.push((group, count as f32 / n as f32));
-                let b = blocks.entry((block, patch)).or_insert((Vec3::ZERO, 0));
-                b.0 += sum;
-                b.1 += count;
+                let on_surface = blocks.entry((block, surface[patch as usize])).or_default();
+                match on_surface.iter_mut().find(|g| g.0 == patch) {
+                    Some(g) => {
+                        g.1 += sum;
+                        g.2 += count;
+                    }
+                    None => on_surface.push((patch, sum, count)),
+                }
                 let mut on_patch = direct
                     .iter()
                     .filter(|d| d.0 == patch)
@@ -244,9 +258,17 @@ impl PixelPoints {
             }
         }
         points.pixel_start.push(points.shares.len() as u32);
-        // One reflected point per (block, patch), in a fixed order (the
-        // points' random streams are their places in the list).
-        let mut keys: Vec<_> = blocks.into_iter().collect();
+        // One reflected point per (block, surface), at the mean of its
+        // samples on the patch most of them meet (a point on the surface
+        // itself, whatever its shape), in a fixed order (the points'
+        // random streams are their places in the list).
+        let mut keys: Vec<((u32, u32), Group)> = blocks
+            .into_iter()
+            .map(|(key, on_surface)| {
+                let most = on_surface.into_iter().max_by_key(|g| (g.2, u32::MAX - g.0));
+                (key, most.expect("a block's surface has samples"))
+            })
+            .collect();
         keys.sort_unstable_by_key(|&(key, _)| key);
         let index: HashMap<(u32, u32), u32> = keys
             .iter()
@@ -255,7 +277,7 @@ impl PixelPoints {
             .collect();
         points.reflected_frames = keys
             .iter()
-            .map(|&((_, patch), (sum, count))| {
+            .map(|&(_, (patch, sum, count))| {
                 (
                     sum / count as f32,
                     scene.patches[patch as usize].normal,
@@ -289,7 +311,7 @@ impl PixelPoints {
                         continue;
                     }
                     let block = bu as u32 + bv as u32 * bw;
-                    if let Some(&i) = index.get(&(block, patch)) {
+                    if let Some(&i) = index.get(&(block, surface[patch as usize])) {
                         points.reflected_weights.push((i, weight));
                         total += weight;
                     }
@@ -302,7 +324,8 @@ impl PixelPoints {
                     // Its own block shows its patch: no weight reached it
                     // only where the pixel's centre lies on its edge.
                     let own = (p as u32 % w) / k + (p as u32 / w) / k * bw;
-                    points.reflected_weights.push((index[&(own, patch)], 1.0));
+                    let key = (own, surface[patch as usize]);
+                    points.reflected_weights.push((index[&key], 1.0));
                 }
             }
         }
@@ -549,31 +572,38 @@ mod tests {
         }
     }
 
-    #[test]
-    fn the_reflected_light_is_interpolated_within_a_patch_only() {
-        // A floor whose left and right halves are two patches, seen from
-        // above: every group's weights sum to one and name points on its
-        // own patch.
+    /// A floor of two patches (left and right halves) seen from above,
+    /// the right half turned up by `fold` degrees about the seam: every
+    /// group's reflected weights sum to one and name points on its own
+    /// smooth surface; the pixels' shares are at most whole. The points.
+    fn two_halves(fold: f32) -> (Scene, PixelPoints) {
+        let (s, c) = fold.to_radians().sin_cos();
         // Counter-clockwise seen from above: facing +y.
-        let half = |x0: f32, x1: f32| {
-            [
-                Vec3::new(x0, 0.0, 1.0),
-                Vec3::new(x1, 0.0, 1.0),
-                Vec3::new(x1, 0.0, -1.0),
-                Vec3::new(x0, 0.0, -1.0),
-            ]
-        };
-        let scene = crate::mesh::testutil::scene(&[&half(-1.0, 0.0), &half(0.0, 1.0)]);
+        let left = [
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+            Vec3::new(-1.0, 0.0, -1.0),
+        ];
+        let right = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(c, s, 1.0),
+            Vec3::new(c, s, -1.0),
+            Vec3::new(0.0, 0.0, -1.0),
+        ];
+        let scene = crate::mesh::testutil::scene(&[&left, &right]);
         let cam = Camera {
-            eye: Vec3::new(0.0, 3.0, 0.0),
-            look_at: Vec3::ZERO,
+            eye: Vec3::new(0.01, 3.0, 0.0),
+            look_at: Vec3::new(0.01, 0.0, 0.0),
             up: Vec3::Z,
             fov_y_deg: 40.0,
         };
+        // The seam runs through blocks (not along their edges).
         let size = (300, 300);
         assert!(reflected_block(size.0, size.1) > 1);
         let points = PixelPoints::cast(&scene, &Occluders::new(&scene), &cam, size);
         assert!(!points.is_empty());
+        let surface = scene.smooth_surfaces();
         for g in 0..points.group_patch.len() {
             let range = points.reflected_start[g] as usize..points.reflected_start[g + 1] as usize;
             let weights = &points.reflected_weights[range];
@@ -583,7 +613,8 @@ mod tests {
                 "group {g}: weights sum to {total}"
             );
             for &(i, _) in weights {
-                assert_eq!(points.reflected_frames[i as usize].2, points.group_patch[g]);
+                let on = points.reflected_frames[i as usize].2 as usize;
+                assert_eq!(surface[on], surface[points.group_patch[g] as usize]);
             }
         }
         // Each pixel's shares are the share of its samples that met a patch.
@@ -591,6 +622,41 @@ mod tests {
             let range = points.pixel_start[p] as usize..points.pixel_start[p + 1] as usize;
             let covered: f32 = points.shares[range].iter().map(|s| s.1).sum();
             assert!(covered <= 1.0 + 1e-5);
+        }
+        (scene, points)
+    }
+
+    /// The blocks of `reflected_block` pixels that show any patch.
+    fn blocks_shown(points: &PixelPoints) -> usize {
+        let k = reflected_block(points.width, points.height);
+        let mut shown = std::collections::HashSet::new();
+        for p in 0..points.pixel_start.len() - 1 {
+            if points.pixel_start[p] < points.pixel_start[p + 1] {
+                let (x, y) = (p as u32 % points.width, p as u32 / points.width);
+                shown.insert((x / k, y / k));
+            }
+        }
+        shown.len()
+    }
+
+    #[test]
+    fn the_reflected_light_is_shared_across_a_flat_floor_of_two_patches() {
+        let (scene, points) = two_halves(0.0);
+        assert_eq!(scene.smooth_surfaces(), vec![0, 0]);
+        // One reflected point a block, the blocks along the seam included.
+        assert_eq!(points.reflected_frames.len(), blocks_shown(&points));
+    }
+
+    #[test]
+    fn the_reflected_light_is_interpolated_within_a_patch_across_a_crease() {
+        let (scene, points) = two_halves(30.0);
+        assert_eq!(scene.smooth_surfaces(), vec![0, 1]);
+        assert!(points.reflected_frames.len() > blocks_shown(&points));
+        for g in 0..points.group_patch.len() {
+            let range = points.reflected_start[g] as usize..points.reflected_start[g + 1] as usize;
+            for &(i, _) in &points.reflected_weights[range] {
+                assert_eq!(points.reflected_frames[i as usize].2, points.group_patch[g]);
+            }
         }
     }
 }

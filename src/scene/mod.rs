@@ -18,6 +18,7 @@ mod objscan;
 mod polygon;
 mod reflectance;
 mod repair;
+mod surfaces;
 #[cfg(test)]
 mod tests;
 mod texture;
