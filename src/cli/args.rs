@@ -315,6 +315,14 @@ pub(crate) struct RenderArgs {
     /// comparison).
     #[arg(long)]
     pub(crate) source_means: bool,
+    /// Gather the light reflected onto every solved element at its own
+    /// centre in the Jacobi passes, instead of once for the small elements
+    /// of a smooth surface in a cell as wide as the largest element (each
+    /// still keeps its own direct light; for comparison; the shared
+    /// gather needs the emitters' light averaged per element, so
+    /// --source-means implies this).
+    #[arg(long)]
+    pub(crate) own_centres: bool,
     /// Where the final gather shades the image. pixels: at the points each
     /// pixel's samples see (the reflected light once per patch in small
     /// blocks of pixels, the direct light at 4 samples a pixel up to

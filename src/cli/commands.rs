@@ -84,6 +84,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         direct_light: args.direct_light.direct_light(),
         retrace_passes: args.retrace_passes,
         lit_samples: !args.source_means,
+        share_centres: !args.own_centres,
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

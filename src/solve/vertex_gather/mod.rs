@@ -36,6 +36,7 @@ pub use self::links::LINKS_BUDGET;
 use self::lit_samples::Emitters;
 use self::point_gather::{Gather, Linking};
 use self::reflected_cache::{Record, ReflectedCache};
+use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
 pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
@@ -81,6 +82,10 @@ pub struct VertexGather {
     /// reflecting source after them ([`lit_samples`]); false: at the
     /// element's centre, and the source's mean, for comparison.
     pub lit_samples: bool,
+    /// With `lit_samples`, the small elements of a smooth surface share
+    /// one gather of their reflected light per cell ([`shared_centres`]);
+    /// false: every centre gathers its own, for comparison.
+    pub share_centres: bool,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -134,6 +139,7 @@ impl Default for VertexGather {
             direct_light: DirectLight::Auto,
             retrace_passes: false,
             lit_samples: true,
+            share_centres: true,
         }
     }
 }
@@ -415,6 +421,45 @@ impl<'a> FinalGather<'a> {
             gather.direct_map = Some(Arc::clone(&means));
             means
         });
+        // With each element's direct light known, the small elements of a
+        // smooth surface share their gathers of the rest
+        // ([`shared_centres`]).
+        let shared = direct_means
+            .as_ref()
+            .filter(|_| settings.share_centres)
+            .map(|_| SharedCentres::new(scene, solved, &exposed))
+            .filter(|s| !s.is_trivial());
+        let leaders = shared.as_ref().map(|s| {
+            let skipped = (frames.len() - s.leaders.len()) * settings.centre_gathers();
+            meter.total = meter.total.saturating_sub(skipped);
+            (s.at_leaders(&frames), s.leader_rho(&gather.element_rho))
+        });
+        // One pass's (or the records') gather at every centre, through
+        // the leaders where they share.
+        let gather_centres = |gather: &Gather,
+                              rho: Option<&[Vec3]>,
+                              measure: Option<bool>,
+                              linking: Linking,
+                              known: Option<&[Vec3]>,
+                              meter: &mut Meter| {
+            match (&shared, &leaders) {
+                (Some(shared), Some((frames, leader_rho))) => {
+                    let known_there = known.map(|k| shared.at_leaders(k));
+                    let rho = rho.map(|_| &leader_rho[..]);
+                    let gathered = gather.gather_points(
+                        frames,
+                        rho,
+                        measure,
+                        linking,
+                        known_there.as_deref(),
+                        meter,
+                    )?;
+                    let rho = &gather.element_rho;
+                    Some(shared.spread(scene, solved, rho, &gathered, known))
+                }
+                _ => gather.gather_points(&frames, rho, measure, linking, known, meter),
+            }
+        };
         let mut links: Vec<Option<Links>> = Vec::new();
         let mut reach: Option<Vec<f32>> = None;
         let record = (settings.reuse > 0.0).then_some(true);
@@ -431,7 +476,7 @@ impl<'a> FinalGather<'a> {
                 .as_ref()
                 .map(|m| m.mean.iter().map(|&d| d * gather.direct_scale).collect());
             let known = known.as_deref();
-            let gathered = gather.gather_points(&frames, rho, measure, linking, known, meter)?;
+            let gathered = gather_centres(&gather, rho, measure, linking, known, meter)?;
             if measure.is_some() {
                 reach = Some(gathered.iter().map(|(_, g)| g.reach()).collect());
             }
@@ -456,14 +501,8 @@ impl<'a> FinalGather<'a> {
             // links where there are, gathered again where not (no passes,
             // or past the links' budget).
             let linking = Linking::Replay(&links);
-            let gathered = gather.gather_points(
-                &frames,
-                Some(&gather.element_rho),
-                Some(false),
-                linking,
-                None,
-                meter,
-            )?;
+            let rho = Some(&gather.element_rho[..]);
+            let gathered = gather_centres(&gather, rho, Some(false), linking, None, meter)?;
             let reach = reach.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.reach()).collect());
             let records = centre_records(&frames, &gathered, &reach, &exposed, solved);
             gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
@@ -585,6 +624,7 @@ mod point_gather;
 mod receiver;
 pub mod refine;
 mod reflected_cache;
+mod shared_centres;
 mod sources;
 #[cfg(test)]
 mod tests;

@@ -125,7 +125,7 @@ impl Default for Gathered {
 }
 
 impl Gathered {
-    fn total(&self) -> Vec3 {
+    pub(super) fn total(&self) -> Vec3 {
         self.direct + self.reflected
     }
 
