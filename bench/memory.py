@@ -20,7 +20,8 @@ a torus of about N thousand triangles) from `scenes/generate_scenes.py
 --scaling` (made in a temporary folder).
 
 A run's gather points are the points the final gather traced rays from:
-the element centres (once: the later Jacobi passes reuse their links),
+the element centres (once: the later Jacobi passes reuse their links;
+the small elements of a smooth surface share one, `centres_gathered`),
 then either the display vertices or, when the image is gathered at its
 pixels, the pixels' reflected points that were not taken from the centres
 (`reflected_reuse.gathered`). The pixels' direct-light points are
@@ -67,7 +68,9 @@ def corpus(scaling_dir, large):
 
 def gather_points(r):
     """The points the final gather traced from (see the module text)."""
-    centres = r["mesh"]["elements"] if r.get("gather_passes") else 0
+    # The centres traced (small elements of a smooth surface share one);
+    # reports before `centres_gathered` traced every element's.
+    centres = r.get("centres_gathered", r["mesh"]["elements"] if r.get("gather_passes") else 0)
     pixels = (r.get("image_gathered_at") or {}).get("pixels")
     if pixels:
         reuse = r.get("reflected_reuse") or {}

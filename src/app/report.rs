@@ -68,6 +68,10 @@ pub struct Report {
     /// Display points that took the light reflected onto them from the
     /// element centres, and points that gathered it (`--reflected-reuse`).
     pub reflected_reuse: (usize, usize),
+    /// Element centres the final gather traced rays from (each once: the
+    /// later Jacobi passes reuse their links; small elements of a smooth
+    /// surface share one).
+    pub centres_gathered: usize,
     /// Whether the GPU gathered the emitters' direct light
     /// (`--direct-light`).
     pub direct_on_gpu: bool,
@@ -144,6 +148,7 @@ impl Report {
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,
             "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
+            "centres_gathered": self.centres_gathered,
             "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
             "image_gathered_at": match self.gathered_at_pixels {
                 Some((reflected, direct)) => serde_json::json!({ "pixels": { "reflected_points": reflected, "direct_points": direct } }),

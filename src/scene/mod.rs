@@ -25,6 +25,7 @@ mod texture;
 
 pub use polygon::{PLANARITY_TOLERANCE, SCENE_EPSILON};
 pub use reflectance::{ELEMENT_SAMPLING, PATCH_SAMPLING};
+pub use surfaces::SMOOTH_COS;
 pub use texture::{srgb_to_linear_table, Texture};
 
 /// A diffuse material.

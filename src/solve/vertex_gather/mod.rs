@@ -304,6 +304,9 @@ pub struct FinalGather<'a> {
     gather: Gather<'a>,
     /// Why the GPU did not gather the direct light though asked to.
     gpu_refused: Option<String>,
+    /// The element centres it traced rays from (each once; fewer than
+    /// the elements where they share, [`shared_centres`]).
+    centres_gathered: usize,
 }
 
 impl<'a> FinalGather<'a> {
@@ -507,9 +510,15 @@ impl<'a> FinalGather<'a> {
             let records = centre_records(&frames, &gathered, &reach, &exposed, solved);
             gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
         }
+        let centres_gathered = match (settings.centre_gathers(), &shared) {
+            (0, _) => 0,
+            (_, Some(shared)) => shared.leaders.len(),
+            (_, None) => frames.len(),
+        };
         Some(FinalGather {
             gather,
             gpu_refused,
+            centres_gathered,
         })
     }
 
@@ -540,6 +549,11 @@ impl<'a> FinalGather<'a> {
     /// How many points so far took their reflected light from the
     /// element centres' cache, and how many gathered it themselves (both
     /// 0 without a cache).
+    /// The element centres the passes traced rays from (each once).
+    pub fn centres_gathered(&self) -> usize {
+        self.centres_gathered
+    }
+
     pub fn reflected_reuse(&self) -> (usize, usize) {
         let [reused, gathered] = &self.gather.reused;
         (

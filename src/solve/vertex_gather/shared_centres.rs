@@ -8,9 +8,9 @@
 //! [`lit_samples`](super::lit_samples)), what a pass still gathers at a
 //! centre is the light the rest of the scene reflects there: smooth along
 //! a smooth surface, and what the elements lend on is their mean. So the
-//! small elements of one smooth surface ([`Scene::smooth_surfaces`]) in
-//! one cell of a grid half as wide as the solve's largest element
-//! ([`CELL`]) gather it once, at the member nearest their middle (the
+//! small elements of one smooth surface ([`Scene::smooth_surfaces`]),
+//! facing about the same way ([`facing`]), in one cell of a grid half as
+//! wide as the solve's largest element ([`CELL`]) gather it once, at the member nearest their middle (the
 //! leader); each keeps its own direct light, reflectance and emission.
 //!
 //! Elements at least half a cell wide stay on their own: a uniform mesh
@@ -28,10 +28,16 @@ use crate::scene::Scene;
 
 /// The cells' width, as a share of the largest element's (the square
 /// root of its area). Measured on `rfield` at 256x256 against the
-/// path-traced reference: 1 made the whole command 9.3 s -> 5.8 s but
-/// the lit error 2.77% -> 2.84% (bias +0.06% -> -0.13%); 0.5 6.5 s at
-/// 2.76%; 0.25 7.7 s at 2.76%.
+/// path-traced reference, before [`facing`] split the groups: 1 made the
+/// whole command 9.3 s -> 5.8 s but the lit error 2.77% -> 2.84% (bias
+/// +0.06% -> -0.13%); 0.5 6.5 s at 2.76%; 0.25 7.7 s at 2.76%.
 const CELL: f32 = 0.5;
+
+/// Cells across a face of the cube of directions [`facing`] sorts normals
+/// by: 8, so that a group's normals are at most about 14 degrees apart
+/// (the turn [`SMOOTH_COS`](crate::scene::SMOOTH_COS) allows between neighbouring patches) near a
+/// face's middle.
+const FACING_CELLS: usize = 8;
 
 /// Which centre gathers the reflected light of each element.
 #[derive(Debug, Clone)]
@@ -55,8 +61,9 @@ impl SharedCentres {
                 .map(|e| size(e.area))
                 .fold(0.0f32, f32::max);
         let surface = scene.smooth_surfaces();
-        // Members by (surface, cell); an element alone gets a key of its own.
-        let mut members: HashMap<(u32, [i64; 3]), Vec<u32>> = HashMap::new();
+        // Members by (surface, facing, cell); an element alone gets a key
+        // of its own.
+        let mut members: HashMap<(u32, [i8; 3], [i64; 3]), Vec<u32>> = HashMap::new();
         let mut alone: Vec<u32> = Vec::new();
         for (e, (element, part)) in solved.elements.iter().zip(exposed).enumerate() {
             if cell <= 0.0 || part.share <= 0.0 || size(element.area) >= 0.5 * cell {
@@ -65,7 +72,7 @@ impl SharedCentres {
             }
             let at = (part.centre / cell).floor().to_array().map(|x| x as i64);
             members
-                .entry((surface[element.patch as usize], at))
+                .entry((surface[element.patch as usize], facing(element.normal), at))
                 .or_default()
                 .push(e as u32);
         }
@@ -151,5 +158,61 @@ impl SharedCentres {
                 (emission * PI + rho[e] * light.total(), light)
             })
             .collect()
+    }
+}
+
+/// Normals in one of these share a gather: the cube's face the normal
+/// points through (its largest axis and sign) and the cell, of
+/// [`FACING_CELLS`]^2 on that face, the other two components fall in. A
+/// smooth surface turns: a tessellated sphere's top and underside are one
+/// surface, and take different light.
+fn facing(n: Vec3) -> [i8; 3] {
+    let a = n.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let major = n[axis];
+    let (u, v) = (
+        n[(axis + 1) % 3] / major.abs(),
+        n[(axis + 2) % 3] / major.abs(),
+    );
+    let cell = |t: f32| {
+        ((t + 1.0) * 0.5 * FACING_CELLS as f32)
+            .floor()
+            .clamp(0.0, FACING_CELLS as f32 - 1.0) as i8
+    };
+    [(axis as i8 + 1) * major.signum() as i8, cell(u), cell(v)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normals_a_few_degrees_apart_face_alike_and_a_sphere_s_top_and_underside_do_not() {
+        let tilt = |deg: f32, axis: Vec3| {
+            let (s, c) = deg.to_radians().sin_cos();
+            (c * Vec3::Y + s * axis).normalize()
+        };
+        // Around the middle of the cube's +y face.
+        let up = tilt(3.0, Vec3::X);
+        assert_eq!(facing(up), facing(tilt(8.0, Vec3::X)));
+        assert_eq!(facing(up), facing(tilt(5.0, Vec3::Z)));
+        assert_ne!(facing(up), facing(tilt(25.0, Vec3::X)));
+        assert_ne!(facing(Vec3::Y), facing(-Vec3::Y));
+        assert_ne!(facing(Vec3::X), facing(Vec3::Z));
+        // No normal falls outside the cells.
+        for k in 0..1000 {
+            let a = k as f32 * 0.618_034 * std::f32::consts::TAU;
+            let z = 1.0 - 2.0 * (k as f32 + 0.5) / 1000.0;
+            let r = (1.0 - z * z).sqrt();
+            let [face, u, v] = facing(Vec3::new(r * a.cos(), r * a.sin(), z));
+            assert!(face != 0 && face.abs() <= 3, "{face}");
+            assert!((0..FACING_CELLS as i8).contains(&u) && (0..FACING_CELLS as i8).contains(&v));
+        }
     }
 }
