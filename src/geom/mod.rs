@@ -1,6 +1,7 @@
 //! Geometry shared by every stage, written once: Newell normals and polygon
-//! areas, tangent frames, and the reverse-Z frusta of the hemicube, the
-//! discontinuity mesher's visibility tiles and the camera.
+//! areas, tangent frames, the disjoint sets that join touching pieces
+//! (shared edges, smooth surfaces), and the reverse-Z frusta of the
+//! hemicube, the discontinuity mesher's visibility tiles and the camera.
 
 use glam::{DVec3, Vec3};
 
@@ -33,6 +34,16 @@ pub fn tangent_frame(n: Vec3) -> (Vec3, Vec3) {
     let t = helper.cross(n).normalize();
     let b = n.cross(t);
     (t, b)
+}
+
+/// The root of `x`'s set in a disjoint-set forest (`parent[i] == i` at a
+/// root), halving the path on the way.
+pub fn set_root(parent: &mut [usize], mut x: usize) -> usize {
+    while parent[x] != x {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    x
 }
 
 #[cfg(test)]

@@ -175,8 +175,16 @@ type Groups = Vec<Group>;
 
 impl PixelPoints {
     /// Casts every pixel's samples through `camera` into `scene`, whose
-    /// ray-tracing hierarchy is `occluders` ([`FinalGather::occluders`]).
-    pub fn cast(scene: &Scene, occluders: &Occluders, camera: &Camera, (w, h): (u32, u32)) -> Self {
+    /// ray-tracing hierarchy is `occluders` ([`FinalGather::occluders`])
+    /// and whose patches' smooth surfaces are `surface`
+    /// ([`FinalGather::smooth_surfaces`]).
+    pub fn cast(
+        scene: &Scene,
+        occluders: &Occluders,
+        surface: &[u32],
+        camera: &Camera,
+        (w, h): (u32, u32),
+    ) -> Self {
         let rays = CameraRays::new(camera, w, h);
         let n = coverage_samples(w, h);
         let coverage = pixel_samples(n);
@@ -205,8 +213,6 @@ impl PixelPoints {
             .collect();
         let k = reflected_block(w, h);
         let (bw, bh) = (w.div_ceil(k), h.div_ceil(k));
-        // Reflected light is shared across the patches of a smooth surface.
-        let surface = scene.smooth_surfaces();
         // Per (block, surface), per patch: the sum of its samples' points
         // and their count.
         let mut blocks: HashMap<(u32, u32), Groups> = HashMap::new();
@@ -345,7 +351,8 @@ impl PixelPoints {
         size: (u32, u32),
         meter: &mut Meter,
     ) -> Option<(HdrImage, (usize, usize))> {
-        let points = PixelPoints::cast(scene, gather.occluders(), camera, size);
+        let (occluders, surface) = (gather.occluders(), gather.smooth_surfaces());
+        let points = PixelPoints::cast(scene, occluders, surface, camera, size);
         meter.total = meter.done + points.len();
         points.gather(scene, gather, meter)
     }
@@ -601,7 +608,8 @@ mod tests {
         // The seam runs through blocks (not along their edges).
         let size = (300, 300);
         assert!(reflected_block(size.0, size.1) > 1);
-        let points = PixelPoints::cast(&scene, &Occluders::new(&scene), &cam, size);
+        let surface = scene.smooth_surfaces();
+        let points = PixelPoints::cast(&scene, &Occluders::new(&scene), &surface, &cam, size);
         assert!(!points.is_empty());
         let surface = scene.smooth_surfaces();
         for g in 0..points.group_patch.len() {

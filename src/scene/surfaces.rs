@@ -15,6 +15,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::Scene;
+use crate::geom::set_root;
 
 /// Two patches that share a corner are one surface when their normals are
 /// at most about 14 degrees apart (cosine 0.97): a tessellated curve's
@@ -31,7 +32,7 @@ impl Scene {
     /// patch.
     pub fn smooth_surfaces(&self) -> Vec<u32> {
         let n = self.patches.len();
-        let mut parent: Vec<u32> = (0..n as u32).collect();
+        let mut parent: Vec<usize> = (0..n).collect();
         let smooth = |a: u32, b: u32| {
             let (pa, pb) = (&self.patches[a as usize], &self.patches[b as usize]);
             pa.normal.dot(pb.normal) >= SMOOTH_COS
@@ -50,14 +51,18 @@ impl Scene {
         for owners in at.values() {
             for (i, &p) in owners.iter().enumerate() {
                 if let Some(&q) = owners[..i].iter().find(|&&q| q != p && smooth(p, q)) {
-                    union(&mut parent, p, q);
+                    let (rp, rq) = (
+                        set_root(&mut parent, p as usize),
+                        set_root(&mut parent, q as usize),
+                    );
+                    parent[rp.max(rq)] = rp.min(rq);
                 }
             }
         }
-        let mut number: HashMap<u32, u32> = HashMap::new();
-        (0..n as u32)
+        let mut number: HashMap<usize, u32> = HashMap::new();
+        (0..n)
             .map(|p| {
-                let root = find(&mut parent, p);
+                let root = set_root(&mut parent, p);
                 let next = number.len() as u32;
                 *number.entry(root).or_insert(next)
             })
@@ -68,21 +73,6 @@ impl Scene {
 fn position_key(v: Vec3) -> [u32; 3] {
     // +0.0 and -0.0 are one position.
     v.to_array().map(|x| (x + 0.0).to_bits())
-}
-
-fn find(parent: &mut [u32], mut x: u32) -> u32 {
-    while parent[x as usize] != x {
-        parent[x as usize] = parent[parent[x as usize] as usize];
-        x = parent[x as usize];
-    }
-    x
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        parent[ra.max(rb) as usize] = ra.min(rb);
-    }
 }
 
 #[cfg(test)]

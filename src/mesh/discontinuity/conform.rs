@@ -23,6 +23,7 @@ use glam::DVec3;
 
 use super::arrange::Arrangement;
 use super::project::Frame;
+use crate::geom::set_root;
 use crate::mesh::sanity::SharedEdge;
 
 /// One patch edge of a group.
@@ -63,14 +64,6 @@ struct Edits {
 /// vertex of the side or gets a vertex that is no duplicate.
 const CORNER_WELD: f64 = 5e-6;
 
-fn find(parent: &mut [usize], mut x: usize) -> usize {
-    while parent[x] != x {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    x
-}
-
 /// Clusters the boundary points of every group of shared edges and makes
 /// every side use exactly the clusters' representatives. Returns the number
 /// of vertices added.
@@ -101,14 +94,14 @@ pub(crate) fn cluster_shared_edges(
             continue;
         }
         let (x, y) = (node(s.a, &mut parent), node(s.b, &mut parent));
-        let (rx, ry) = (find(&mut parent, x), find(&mut parent, y));
+        let (rx, ry) = (set_root(&mut parent, x), set_root(&mut parent, y));
         if rx != ry {
             parent[rx] = ry;
         }
     }
     let mut groups: HashMap<usize, Vec<(usize, usize)>> = HashMap::new();
     for (i, &e) in nodes.iter().enumerate() {
-        let r = find(&mut parent, i);
+        let r = set_root(&mut parent, i);
         groups.entry(r).or_default().push(e);
     }
     let mut groups: Vec<Vec<(usize, usize)>> = groups.into_values().collect();

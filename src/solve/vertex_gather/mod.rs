@@ -24,7 +24,7 @@
 //! factor.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
 
@@ -307,6 +307,8 @@ pub struct FinalGather<'a> {
     /// The element centres it traced rays from (each once; fewer than
     /// the elements where they share, [`shared_centres`]).
     centres_gathered: usize,
+    /// The scene's smooth surfaces, found once for whoever asks first.
+    surfaces: OnceLock<Vec<u32>>,
 }
 
 impl<'a> FinalGather<'a> {
@@ -427,10 +429,14 @@ impl<'a> FinalGather<'a> {
         // With each element's direct light known, the small elements of a
         // smooth surface share their gathers of the rest
         // ([`shared_centres`]).
+        let surfaces = OnceLock::new();
         let shared = direct_means
             .as_ref()
             .filter(|_| settings.share_centres)
-            .map(|_| SharedCentres::new(scene, solved, &exposed))
+            .map(|_| {
+                let surface = surfaces.get_or_init(|| scene.smooth_surfaces());
+                SharedCentres::new(solved, &exposed, surface)
+            })
             .filter(|s| !s.is_trivial());
         let leaders = shared.as_ref().map(|s| {
             let skipped = (frames.len() - s.leaders.len()) * settings.centre_gathers();
@@ -519,6 +525,7 @@ impl<'a> FinalGather<'a> {
             gather,
             gpu_refused,
             centres_gathered,
+            surfaces,
         })
     }
 
@@ -549,6 +556,13 @@ impl<'a> FinalGather<'a> {
     /// How many points so far took their reflected light from the
     /// element centres' cache, and how many gathered it themselves (both
     /// 0 without a cache).
+    /// Per patch, its smooth surface ([`Scene::smooth_surfaces`]),
+    /// found once per gather.
+    pub fn smooth_surfaces(&self) -> &[u32] {
+        self.surfaces
+            .get_or_init(|| self.gather.scene.smooth_surfaces())
+    }
+
     /// The element centres the passes traced rays from (each once).
     pub fn centres_gathered(&self) -> usize {
         self.centres_gathered

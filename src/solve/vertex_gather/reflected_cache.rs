@@ -177,7 +177,8 @@ impl ReflectedCache {
 /// How far a record is used, in its element's widths.
 const REACH: f32 = 1.5;
 
-fn cell_of(p: Vec3, cell: f32) -> [i64; 3] {
+/// The cell of a grid `cell` wide that holds `p`.
+pub(super) fn cell_of(p: Vec3, cell: f32) -> [i64; 3] {
     let q = (p / cell).floor();
     [q.x as i64, q.y as i64, q.z as i64]
 }

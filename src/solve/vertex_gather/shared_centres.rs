@@ -23,6 +23,7 @@ use glam::Vec3;
 
 use super::exposure::ExposedPart;
 use super::point_gather::Gathered;
+use super::reflected_cache::cell_of;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -54,9 +55,10 @@ pub(super) struct SharedCentres {
 
 impl SharedCentres {
     /// The groups of `solved`'s elements, whose gathers happen at the
-    /// centres of their `exposed` parts. Elements with nothing exposed
-    /// stay alone (they take no light).
-    pub(super) fn new(scene: &Scene, solved: &Mesh, exposed: &[ExposedPart]) -> Self {
+    /// centres of their `exposed` parts, on the patches' smooth surfaces
+    /// `surface` ([`Scene::smooth_surfaces`]). Elements with nothing
+    /// exposed stay alone (they take no light).
+    pub(super) fn new(solved: &Mesh, exposed: &[ExposedPart], surface: &[u32]) -> Self {
         let size = |area: f32| area.max(0.0).sqrt();
         let cell = CELL
             * solved
@@ -64,7 +66,6 @@ impl SharedCentres {
                 .iter()
                 .map(|e| size(e.area))
                 .fold(0.0f32, f32::max);
-        let surface = scene.smooth_surfaces();
         // Members by (surface, facing, cell); an element alone gets a key
         // of its own.
         let mut members: HashMap<(u32, [i8; 3], [i64; 3]), Vec<u32>> = HashMap::new();
@@ -74,7 +75,7 @@ impl SharedCentres {
                 alone.push(e as u32);
                 continue;
             }
-            let at = (part.centre / cell).floor().to_array().map(|x| x as i64);
+            let at = cell_of(part.centre, cell);
             members
                 .entry((surface[element.patch as usize], facing(element.normal), at))
                 .or_default()
@@ -171,14 +172,7 @@ impl SharedCentres {
 /// smooth surface turns: a tessellated sphere's top and underside are one
 /// surface, and take different light.
 fn facing(n: Vec3) -> [i8; 3] {
-    let a = n.abs();
-    let axis = if a.x >= a.y && a.x >= a.z {
-        0
-    } else if a.y >= a.z {
-        1
-    } else {
-        2
-    };
+    let axis = n.abs().max_position();
     let major = n[axis];
     let (u, v) = (
         n[(axis + 1) % 3] / major.abs(),

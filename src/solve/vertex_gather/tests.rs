@@ -914,8 +914,8 @@ fn small_elements_that_share_their_reflected_gather_keep_the_room_balanced_and_a
     // little, and the shared values stay close to each centre's own.
     let (s, mesh, light) = room_of_fine_walls(24, 2.0);
     let exposed = exposed_parts(&s, &mesh, &Occluders::new(&s));
-    let shared = SharedCentres::new(&s, &mesh, &exposed);
     let surface = s.smooth_surfaces();
+    let shared = SharedCentres::new(&mesh, &exposed, &surface);
     assert!(
         shared.leaders.len() * 4 < mesh.elements.len(),
         "{} leaders for {} elements",
