@@ -7,15 +7,32 @@ use glam::Vec3;
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::scene::{Material, Patch, Scene};
 
-/// A device with the Khronos validation layer on. CI sets
-/// VKRAD_REQUIRE_VALIDATION=1 so a missing layer fails instead of skipping.
-pub fn device() -> Arc<Device> {
-    let device = Device::new(&DeviceOptions {
+/// The options every test device is made with.
+fn test_options() -> DeviceOptions {
+    DeviceOptions {
         selector: std::env::var("VKRAD_TEST_DEVICE").ok(),
         validate: true,
         ..Default::default()
-    })
-    .expect("a Vulkan device (install mesa-vulkan-drivers for lavapipe)");
+    }
+}
+
+/// A device with the Khronos validation layer on. CI sets
+/// VKRAD_REQUIRE_VALIDATION=1 so a missing layer fails instead of skipping.
+///
+/// Each test gets its own device (its validation errors are its own), but
+/// one more is made first and never dropped: the Vulkan loader unloads a
+/// driver when its last instance goes, and NVIDIA's driver (580, H200)
+/// cannot be loaded again about fifty times in one process ("cannot
+/// allocate memory in static TLS block", then no driver, or a crash).
+pub fn device() -> Arc<Device> {
+    static ANCHOR: std::sync::Once = std::sync::Once::new();
+    ANCHOR.call_once(|| {
+        if let Ok(anchor) = Device::new(&test_options()) {
+            std::mem::forget(anchor);
+        }
+    });
+    let device = Device::new(&test_options())
+        .expect("a Vulkan device (install mesa-vulkan-drivers for lavapipe)");
     if std::env::var_os("VKRAD_REQUIRE_VALIDATION").is_some() {
         assert!(
             device.validation_enabled(),
