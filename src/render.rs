@@ -62,6 +62,44 @@ pub fn pixel_samples(n: u32) -> Vec<(f32, f32)> {
         .collect()
 }
 
+/// The first `count` points of a pixel's extensible pattern: the (0,2)
+/// sequence in base 2 (x the bits of k reversed, y Sobol's second
+/// dimension), digitally shifted so that the first point is the pixel's
+/// centre, then moved by half a cell of `finest` points. Each prefix of
+/// 2^m points is a (0,m,2)-net (every 2^a x 2^b split of the pixel with
+/// a + b = m holds one), so a pixel that needs more samples keeps the
+/// ones it cast and adds the next; Hammersley's points
+/// ([`pixel_samples`]) are a net only as a whole. One point is the
+/// pixel's centre; a prefix's mean lies within 1/2 of its cell of it.
+pub fn nested_pixel_samples(count: u32, finest: u32) -> Vec<(f32, f32)> {
+    if count == 1 {
+        return vec![(0.5, 0.5)];
+    }
+    let half_cell = 0.5 / finest.max(1) as f32;
+    let fraction = |bits: u32| (bits ^ (1 << 31)) as f32 / 4_294_967_296.0;
+    (0..count)
+        .map(|k| {
+            let (x, y) = (fraction(k.reverse_bits()), fraction(sobol_second(k)));
+            ((x + half_cell).fract(), (y + half_cell).fract())
+        })
+        .collect()
+}
+
+/// The k-th point of Sobol's second dimension, as 32 bits of [0, 1):
+/// direction numbers v_0 = 1/2, v_i = v_{i-1} xor v_{i-1}/2 (Pascal's
+/// triangle mod 2), xored for each set bit of k.
+fn sobol_second(mut k: u32) -> u32 {
+    let (mut v, mut bits) = (1u32 << 31, 0u32);
+    while k != 0 {
+        if k & 1 == 1 {
+            bits ^= v;
+        }
+        k >>= 1;
+        v ^= v >> 1;
+    }
+    bits
+}
+
 /// `view_proj` shifted so that pixel centres sample at `(sx, sy)` within
 /// their pixel of a `width` x `height` image.
 pub fn jittered(view_proj: Mat4, (sx, sy): (f32, f32), width: u32, height: u32) -> Mat4 {
@@ -473,6 +511,43 @@ mod tests {
         assert_eq!(samples_per_pixel(1024, 1024), 16);
         assert_eq!(samples_per_pixel(2048, 2048), 4);
         assert_eq!(samples_per_pixel(16384, 16384), 1);
+    }
+
+    #[test]
+    fn every_prefix_of_the_nested_samples_is_a_net() {
+        let finest = 256;
+        let all = nested_pixel_samples(finest, finest);
+        assert_eq!(all[0], (0.5 + 0.5 / 256.0, 0.5 + 0.5 / 256.0));
+        assert_eq!(nested_pixel_samples(1, finest), vec![(0.5, 0.5)]);
+        for m in 0..=8u32 {
+            let prefix = &all[..1 << m];
+            assert_eq!(nested_pixel_samples(1 << m, finest)[1..], prefix[1..]);
+            // Every split into 2^a columns and 2^b rows, a + b = m, holds
+            // one point in each cell.
+            for a in 0..=m {
+                let (cols, rows) = (1u32 << a, 1u32 << (m - a));
+                let mut cells: Vec<u32> = prefix
+                    .iter()
+                    .map(|&(x, y)| {
+                        assert!((0.0..1.0).contains(&x) && (0.0..1.0).contains(&y));
+                        (x * cols as f32) as u32 + (y * rows as f32) as u32 * cols
+                    })
+                    .collect();
+                cells.sort_unstable();
+                assert_eq!(cells, (0..1u32 << m).collect::<Vec<_>>(), "m {m}, a {a}");
+            }
+            // Its mean is near the pixel's centre.
+            let n = prefix.len() as f32;
+            let mean = prefix
+                .iter()
+                .fold((0.0, 0.0), |s, p| (s.0 + p.0 / n, s.1 + p.1 / n));
+            if m >= 2 {
+                assert!(
+                    (mean.0 - 0.5).abs() <= 0.5 / n && (mean.1 - 0.5).abs() <= 0.5 / n,
+                    "{mean:?}"
+                );
+            }
+        }
     }
 
     #[test]
