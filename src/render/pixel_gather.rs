@@ -138,8 +138,8 @@ pub fn reflected_block(width: u32, height: u32) -> u32 {
     ((pixels as f64 / f64::from(1 << 14)).sqrt().floor() as u32).max(1)
 }
 
-/// A pixel a silhouette crosses (its coverage samples meet more than one
-/// patch, or a patch and nothing) casts this many times the
+/// A pixel a silhouette crosses (its coverage samples meet two smooth
+/// surfaces or materials, or one and nothing) casts this many times the
 /// [`coverage_samples`] (the next of its nested pattern,
 /// [`nested_pixel_samples`]): its value rests on its patches' shares, and
 /// there one sample's error is the contrast between two surfaces.
@@ -151,8 +151,20 @@ pub const SILHOUETTE_COVERAGE: u32 = 4;
 /// sample traces. Measured on `rfield` at 256x256 (a quarter of its
 /// pixels; ARCHITECTURE.md, "Silhouettes"): 4x the coverage and 4x the
 /// direct samples took the lit error from 2.77% to 2.37%, 16x the direct
-/// samples to 2.17%, 16x both to 2.19%.
+/// samples to 2.17%, 16x both to 2.19% (each with every two patches a
+/// silhouette; with only two surfaces or materials, 2.21%).
 pub const SILHOUETTE_DIRECT: u32 = 16;
+
+/// Whether an image's silhouettes take more samples: where a pixel has
+/// several direct samples (up to 256x256), as with [`edge_samples`]. A
+/// smaller pixel is small beside what it shows: the Cornell box at
+/// 768x768, averaged 3x3 to the reference's pixels, gained 3% (1.256% ->
+/// 1.217% lit error) for 6% more time (3.09 -> 3.28 s at 800x800,
+/// medians of five interleaved), no more than a path tracer gains from
+/// the same time.
+pub fn silhouettes_refined(width: u32, height: u32) -> bool {
+    direct_samples(width, height) > 1 && coverage_samples(width, height) > 1
+}
 
 /// A group's direct samples differ by more than this share of the
 /// brightest: a shadow's edge crosses its pixel, and it takes
@@ -233,10 +245,13 @@ impl PixelPoints {
     ) -> Self {
         let rays = CameraRays::new(camera, w, h);
         let n = coverage_samples(w, h);
-        // With one coverage sample a pixel cannot see a silhouette.
-        let scale = if n > 1 { SILHOUETTE_COVERAGE } else { 1 };
-        let coverage = nested_pixel_samples(n * scale, n * scale);
         let d = direct_samples(w, h).min(n);
+        let scale = if silhouettes_refined(w, h) {
+            SILHOUETTE_COVERAGE
+        } else {
+            1
+        };
+        let coverage = nested_pixel_samples(n * scale, n * scale);
         let direct = pixel_samples(d);
         let direct_across = pixel_samples(d * SILHOUETTE_DIRECT);
         let hit = |x: f32, y: f32| front_hit(scene, occluders, &rays, camera.eye, x, y);
@@ -251,8 +266,18 @@ impl PixelPoints {
                         .collect()
                 };
                 let mut hits = cast(&coverage[..n as usize]);
-                let first = hits[0].map(|h| h.0);
-                let silhouette = hits.iter().any(|h| h.map(|h| h.0) != first) && scale > 1;
+                // What a hit shows: a seam between two patches of one
+                // smooth surface and material is not a silhouette.
+                let shows = |h: &Option<(u32, Vec3)>| {
+                    h.map(|(patch, _)| {
+                        (
+                            surface[patch as usize],
+                            scene.patches[patch as usize].material,
+                        )
+                    })
+                };
+                let first = shows(&hits[0]);
+                let silhouette = scale > 1 && hits.iter().any(|h| shows(h) != first);
                 if silhouette {
                     hits.extend(cast(&coverage[n as usize..]));
                 }
@@ -675,8 +700,10 @@ mod tests {
             up: Vec3::Z,
             fov_y_deg: 40.0,
         };
-        // The seam runs through blocks (not along their edges).
-        let size = (300, 300);
+        // The seam runs through blocks (not along their edges), and the
+        // image is small enough for its silhouettes to take more samples.
+        let size = (256, 256);
+        assert!(silhouettes_refined(size.0, size.1));
         assert!(reflected_block(size.0, size.1) > 1);
         let surface = scene.smooth_surfaces();
         let points = PixelPoints::cast(&scene, &Occluders::new(&scene), &surface, &cam, size);
@@ -719,7 +746,8 @@ mod tests {
 
     #[test]
     fn a_pixel_a_silhouette_crosses_takes_more_samples() {
-        let (scene, points) = two_halves(0.0);
+        // The halves at a crease: two smooth surfaces.
+        let (scene, points) = two_halves(30.0);
         let (w, h) = (points.width, points.height);
         let n = coverage_samples(w, h);
         assert!(n > 1);
@@ -778,6 +806,19 @@ mod tests {
         assert!(seam_pixels >= h as usize / 2, "{seam_pixels} seam pixels");
         // The floor's own pixels keep their count.
         assert!(points.silhouette.iter().filter(|&&s| !s).count() > (w * h) as usize / 2);
+        // Flat, the halves are one surface of one material: their seam
+        // is no silhouette (only the floor's outline is).
+        let (_, flat) = two_halves(0.0);
+        for p in 0..(w * h) as usize {
+            let shares =
+                &flat.shares[flat.pixel_start[p] as usize..flat.pixel_start[p + 1] as usize];
+            let covered: f32 = shares.iter().map(|s| s.1).sum();
+            assert_eq!(
+                flat.silhouette[p],
+                covered < 1.0 && covered > 0.0,
+                "pixel {p}: {shares:?}"
+            );
+        }
     }
 
     #[test]
