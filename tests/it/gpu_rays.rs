@@ -106,7 +106,10 @@ fn segments_agree(name: &str, n: usize) {
                     flat.visible_brute_force(a + step * d, b, skip) == gpu[i]
                         || flat.visible_brute_force(a, b + step * d, skip) == gpu[i]
                 });
-            assert!(grazes, "{name}: the GPU is wrong on segment {i}, not a graze");
+            assert!(
+                grazes,
+                "{name}: the GPU is wrong on segment {i}, not a graze"
+            );
         }
     }
     let blocked = cpu.iter().filter(|&&v| !v).count();
