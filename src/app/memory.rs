@@ -17,6 +17,7 @@ use super::{display_request, gathers_at_pixels, mesh_settings, Job};
 use crate::error::{Error, Result};
 use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
 use crate::mesh::element_count;
+use crate::render::pixel_gather::silhouettes_refined;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
 use crate::solve::vertex_gather::display::DisplayRequest;
@@ -49,6 +50,13 @@ const GATHER_BYTES_PER_ELEMENT: u64 = 3584;
 /// pixel at most over the corpus, about 70 bytes each with their light)
 /// and the reflected light's points and weights.
 const PIXEL_GATHER_BYTES_PER_PIXEL: u64 = 512;
+/// The same where the silhouettes take more samples
+/// ([`crate::render::pixel_gather::silhouettes_refined`]): a silhouette
+/// pixel's 64 direct points. Over the corpus at 256x256, 15 direct points
+/// a pixel on `rfield` (+46 MB of peak) and 27 on the 204k field: 32 a
+/// pixel at 70 bytes, fitted, not derived (a frame of silhouettes alone
+/// would hold 64).
+const PIXEL_GATHER_BYTES_PER_REFINED_PIXEL: u64 = 512 + 32 * 70;
 /// Per display element: its build (triangulations, junction repair's
 /// spatial hash), its vertices' gathered values and caches, and the
 /// render's vertex and colour copies (rfield: 477k elements took 93 MB to
@@ -161,7 +169,14 @@ impl RunEstimate {
                 .sum();
             let links = (LINK_BYTES_PER_ELEMENT * mesh.elements).min(LINKS_BUDGET as u64);
             let pixels = match at {
-                GatherAt::Pixels => PIXEL_GATHER_BYTES_PER_PIXEL * w * h,
+                GatherAt::Pixels => {
+                    let refined = silhouettes_refined(shape.size.0, shape.size.1);
+                    let per_pixel = [
+                        PIXEL_GATHER_BYTES_PER_PIXEL,
+                        PIXEL_GATHER_BYTES_PER_REFINED_PIXEL,
+                    ];
+                    per_pixel[usize::from(refined)] * w * h
+                }
                 GatherAt::Vertices(_) => 0,
             };
             parts.push(EstimatePart {
