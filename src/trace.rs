@@ -39,6 +39,9 @@ pub mod cat {
     pub const STAGE: &str = "stage";
     /// The CPU's share of one batch of shots (pick, record, submit, wait, readback).
     pub const BATCH_CPU: &str = "cpu.batch";
+    /// A step inside a stage (the pixel gather's camera rays, reflected
+    /// light, direct light...).
+    pub const STEP: &str = "step";
     /// CPU work spread over rayon's threads.
     pub const RAYON: &str = "cpu.rayon";
     /// One queue submission on the GPU (its first to its last timestamp).

@@ -19,6 +19,7 @@
 
 use std::collections::HashMap;
 use std::f32::consts::PI;
+use std::time::Instant;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -28,6 +29,8 @@ use crate::formfactor::raytrace::Occluders;
 use crate::output::HdrImage;
 use crate::scene::{Camera, Scene};
 use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
+use crate::trace::{cat, span_since};
+use serde_json::json;
 
 /// Where the final gather shades the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -439,7 +442,14 @@ impl PixelPoints {
         meter: &mut Meter,
     ) -> Option<(HdrImage, (usize, usize))> {
         let (occluders, surface) = (gather.occluders(), gather.smooth_surfaces());
+        let start = Instant::now();
         let points = PixelPoints::cast(scene, occluders, surface, camera, size);
+        span_since(meter.trace, cat::STEP, "camera rays", start, || {
+            json!({
+                "pixels": size.0 * size.1,
+                "silhouette pixels": points.silhouette.iter().filter(|&&s| s).count(),
+            })
+        });
         meter.total = meter.done + points.len();
         points.gather(scene, gather, meter)
     }
@@ -455,27 +465,45 @@ impl PixelPoints {
         gather: &FinalGather,
         meter: &mut Meter,
     ) -> Option<(HdrImage, (usize, usize))> {
+        let trace = meter.trace;
+        let step = |name: &str, start: Instant, points: usize| {
+            span_since(
+                trace,
+                cat::STEP,
+                name,
+                start,
+                || json!({ "points": points }),
+            );
+        };
+        let start = Instant::now();
         let reflected =
             gather.light_at_points(&self.reflected_frames, PointLight::Reflected, 0, meter)?;
+        step("reflected light at the pixels", start, reflected.len());
         // A pixel averages its direct samples: each traces its share of a
         // point's rays.
         let (w, h) = (self.width, self.height);
         let per_pixel = direct_samples(w, h);
         let light = PointLight::Direct { samples: per_pixel };
+        let start = Instant::now();
         let direct = gather.light_at_points(&self.direct_frames, light, 0, meter)?;
+        step("direct light at the pixels", start, direct.len());
         let mut samples: Vec<(u32, Vec3)> = self.direct_group.iter().copied().zip(direct).collect();
         let light = PointLight::Direct {
             samples: per_pixel * SILHOUETTE_DIRECT,
         };
         let first = self.direct_frames.len() as u64;
+        let start = Instant::now();
         let across = gather.light_at_points(&self.across_frames, light, first, meter)?;
+        step("direct light across silhouettes", start, across.len());
         samples.extend(self.across_group.iter().copied().zip(across));
+        let start = Instant::now();
         let (frames, groups) = self.edge_frames(scene, gather.occluders(), &samples);
         let first = (self.direct_frames.len() + self.across_frames.len()) as u64;
         let light = PointLight::Direct {
             samples: per_pixel + edge_samples(w, h),
         };
         let more = gather.light_at_points(&frames, light, first, meter)?;
+        step("direct light across shadow edges", start, more.len());
         samples.extend(groups.into_iter().zip(more));
         let counts = (reflected.len(), samples.len());
         Some((self.image(scene, &reflected, &samples), counts))
