@@ -148,7 +148,8 @@ pub fn reflected_block(width: u32, height: u32) -> u32 {
 /// there one sample's error is the contrast between two surfaces.
 pub const SILHOUETTE_COVERAGE: u32 = 4;
 
-/// ... and takes this many times the [`direct_samples`], each tracing as
+/// ... and takes this many times the [`direct_samples`] (at its first
+/// coverage samples, so no camera rays of their own), each tracing as
 /// many times fewer rays (at least 16): where in each patch's part of the
 /// pixel its direct light is sampled matters more than how many rays each
 /// sample traces. Measured on `rfield` at 256x256 (a quarter of its
@@ -256,7 +257,9 @@ impl PixelPoints {
         };
         let coverage = nested_pixel_samples(n * scale, n * scale);
         let direct = pixel_samples(d);
-        let direct_across = pixel_samples(d * SILHOUETTE_DIRECT);
+        // A silhouette pixel's direct samples are its first coverage
+        // samples, a net of their own: no rays of their own.
+        let across = (d * SILHOUETTE_DIRECT).min(n) as usize;
         let hit = |x: f32, y: f32| front_hit(scene, occluders, &rays, camera.eye, x, y);
         let per_pixel: Vec<PixelHits> = (0..w * h)
             .into_par_iter()
@@ -284,10 +287,13 @@ impl PixelPoints {
                 if silhouette {
                     hits.extend(cast(&coverage[n as usize..]));
                 }
-                let direct = cast([&direct, &direct_across][usize::from(silhouette)]);
+                let direct = match silhouette {
+                    false => cast(&direct).into_iter().flatten().collect(),
+                    true => hits[..across].iter().flatten().copied().collect(),
+                };
                 PixelHits {
                     groups: group_hits(&hits),
-                    direct: direct.into_iter().flatten().collect(),
+                    direct,
                     silhouette,
                 }
             })
