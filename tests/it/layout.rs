@@ -40,6 +40,7 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
             "gpu",
             "output",
             "solve",
+            "trace",
         ],
     ),
     ("app", &[ANY_BUT_BENCH]),
