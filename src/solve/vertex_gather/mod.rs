@@ -52,7 +52,7 @@ use crate::trace::Trace;
 pub struct VertexGather {
     /// Rays from a vertex to a whole emitting node.
     pub emitter_rays: usize,
-    /// Most rays to a reflecting node (one per 1/128 of form factor, at
+    /// Most rays to a reflecting node (one per 1/256 of form factor, at
     /// least [`MIN_REFLECTOR_RAYS`]).
     pub reflector_rays: usize,
     /// A node is taken whole when its radius is at most this times its
@@ -130,7 +130,7 @@ impl Default for VertexGather {
     fn default() -> Self {
         VertexGather {
             emitter_rays: 256,
-            reflector_rays: 16,
+            reflector_rays: 32,
             opening: 0.5,
             uniformity: 1.5,
             source_passes: 8,
