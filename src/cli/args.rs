@@ -323,6 +323,14 @@ pub(crate) struct RenderArgs {
     /// --source-means implies this).
     #[arg(long)]
     pub(crate) own_centres: bool,
+    /// Rays a gathered point sends over its hemisphere for the reflected
+    /// light, in a scene of small patches (patches under a thousandth of
+    /// its area hold 1% of it: letters, tessellated curves, scans),
+    /// instead of visiting each patch as a source. The emitters' direct
+    /// light is always gathered exactly, and so is everything in a scene
+    /// of a few large patches. 0: visit every patch (for comparison).
+    #[arg(long, default_value_t = VertexGather::default().hemisphere_rays, value_name = "N")]
+    pub(crate) hemisphere_rays: usize,
     /// Where the final gather shades the image. pixels: at the points each
     /// pixel's samples see (the reflected light once per patch in small
     /// blocks of pixels, the direct light at 4 samples a pixel up to

@@ -85,6 +85,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         retrace_passes: args.retrace_passes,
         lit_samples: !args.source_means,
         share_centres: !args.own_centres,
+        hemisphere_rays: args.hemisphere_rays,
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

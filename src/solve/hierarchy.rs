@@ -74,6 +74,13 @@ pub struct ShooterTree {
 }
 
 impl ShooterTree {
+    /// Every patch's root node.
+    pub fn roots(&self) -> Vec<u32> {
+        (0..self.nodes.len() as u32)
+            .filter(|&n| self.nodes[n as usize].parent == u32::MAX)
+            .collect()
+    }
+
     pub fn new(scene: &Scene, mesh: &Mesh) -> Self {
         let mut tree = ShooterTree {
             nodes: Vec::new(),

@@ -141,6 +141,13 @@ impl Occluders {
             .map(|(t, id)| (t, self.tris[id].patch))
     }
 
+    /// The first patch the ray `a + t d`, `t > tmin`, meets, ignoring
+    /// patch `skip`: `(t, patch)`.
+    pub fn first_hit_beyond(&self, a: Vec3, d: Vec3, tmin: f32, skip: u32) -> Option<(f32, u32)> {
+        self.first_hit_triangle(a, d, tmin, skip)
+            .map(|(t, id)| (t, self.tris[id].patch))
+    }
+
     /// [`Occluders::first_hit`] beyond `tmin`, ignoring patch `skip`, with
     /// the triangle's index.
     fn first_hit_triangle(&self, a: Vec3, d: Vec3, tmin: f32, skip: u32) -> Option<(f32, usize)> {

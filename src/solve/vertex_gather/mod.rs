@@ -31,6 +31,7 @@ use glam::Vec3;
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
 use self::gpu_direct::GpuDirect;
+use self::hemisphere_rays::HemisphereRays;
 use self::links::Links;
 pub use self::links::LINKS_BUDGET;
 use self::lit_samples::Emitters;
@@ -86,6 +87,10 @@ pub struct VertexGather {
     /// one gather of their reflected light per cell ([`shared_centres`]);
     /// false: every centre gathers its own, for comparison.
     pub share_centres: bool,
+    /// Cosine-distributed rays a point sends to gather the reflected light
+    /// in a scene of small patches ([`hemisphere_rays`]); 0: every patch
+    /// is visited as a source, for comparison.
+    pub hemisphere_rays: usize,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -140,6 +145,7 @@ impl Default for VertexGather {
             retrace_passes: false,
             lit_samples: true,
             share_centres: true,
+            hemisphere_rays: HEMISPHERE_RAYS,
         }
     }
 }
@@ -182,6 +188,12 @@ const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 /// same lit error (3.48% against 3.49%, bias -0.10% against -0.55%), the
 /// Cornell box's unchanged (1.70%); 0.2 and 0.4 gained no more.
 pub const LINK_ERROR: f32 = 0.1;
+
+/// Default [`VertexGather::hemisphere_rays`]. Measured on `rfield` at
+/// 256x256 against the path-traced reference (65,536 spp), whole
+/// commands on 2 cores: 128 rays 2.11% lit error in 4.0 s, 256 1.98% in
+/// 4.7 s, 512 1.94% in 6.3 s (visiting every patch: 2.01% in 8.7 s).
+pub const HEMISPHERE_RAYS: usize = 256;
 
 /// Default [`VertexGather::reuse`].
 ///
@@ -364,13 +376,19 @@ impl<'a> FinalGather<'a> {
             })
             .collect();
         let first = sources(scene, solved, tree, &undiluted, &exposed, None);
-        let roots: Vec<u32> = (0..tree.nodes.len() as u32)
-            .filter(|&n| tree.nodes[n as usize].parent == u32::MAX)
+        let roots = tree.roots();
+        // In a scene of small patches hemisphere rays gather the reflected
+        // light; the clusters and the exact gather take the rest.
+        let hemisphere_rays = HemisphereRays::new(scene, tree, settings.hemisphere_rays);
+        let exact_roots: Vec<u32> = roots
+            .iter()
+            .copied()
+            .filter(|&n| !hemisphere_rays.gathers(tree.nodes[n as usize].patch))
             .collect();
         let mut gather = Gather {
             scene,
             tree,
-            clusters: Clusters::new(tree, &roots, &first),
+            clusters: Clusters::new(tree, &exact_roots, &first),
             sources: first,
             occluders,
             settings: *settings,
@@ -382,6 +400,7 @@ impl<'a> FinalGather<'a> {
             emitters: Emitters::default(),
             direct_map: None,
             direct_scale: Vec3::ONE,
+            hemisphere_rays,
         };
         let mut gpu_refused = None;
         let on_gpu = |device: &Device| match settings.direct_light {
@@ -646,6 +665,7 @@ mod clusters;
 pub mod display;
 mod exposure;
 mod gpu_direct;
+mod hemisphere_rays;
 mod links;
 mod lit_samples;
 mod point_gather;

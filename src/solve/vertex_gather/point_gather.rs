@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::clusters::Clusters;
 use super::exposure;
 use super::gpu_direct::GpuDirect;
+use super::hemisphere_rays::HemisphereRays;
 use super::links::{Links, LINKS_BUDGET};
 use super::lit_samples::{DirectMeans, Emitters, POINT_RAYS};
 use super::receiver::Receiver;
@@ -58,6 +59,8 @@ pub(super) struct Gather<'a> {
     /// emitters' light has grown since (by what they reflect).
     pub(super) direct_map: Option<Arc<DirectMeans>>,
     pub(super) direct_scale: Vec3,
+    /// The patches whose light hemisphere rays gather.
+    pub(super) hemisphere_rays: HemisphereRays,
 }
 
 /// What a gather does with the points' links ([`Links`]).
@@ -550,6 +553,14 @@ impl Gather<'_> {
                 if wanted.record {
                     gathered.distance.add(ff, nearest);
                 }
+            }
+        }
+        if wanted.reflected && self.hemisphere_rays.any() {
+            let distance = wanted.record.then_some(&mut gathered.distance);
+            let by_rays = self.by_hemisphere_rays(at, rng, distance, links);
+            gathered.reflected += by_rays.reflected;
+            if wanted.record {
+                gathered.clearance = gathered.clearance.min(by_rays.clearance);
             }
         }
         gathered
