@@ -100,6 +100,14 @@ impl HemisphereRays {
         }
     }
 
+    /// Sends `rays` rays a point from here on (the element centres take
+    /// fewer than the points the image shows).
+    pub(super) fn set_rays(&mut self, rays: usize) {
+        if self.rays > 0 {
+            self.rays = rays;
+        }
+    }
+
     /// Whether any patch is gathered by the rays.
     pub(super) fn any(&self) -> bool {
         self.rays > 0 && self.gathers.iter().any(|&s| s)
