@@ -22,6 +22,10 @@
 //! Emitting nodes get many stratified rays (their shadows are what the
 //! image must resolve), reflecting ones a few, in proportion to their form
 //! factor.
+//!
+//! In a scene of many small patches the reflected light is gathered by
+//! rays sent over each point's hemisphere instead ([`hemisphere_rays`]);
+//! the emitters stay exact.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, OnceLock};
