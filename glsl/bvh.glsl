@@ -1,4 +1,5 @@
-// Any-hit segment queries against a binary BVH in storage buffers
+// Any-hit segment and first-hit ray queries against a binary BVH in
+// storage buffers
 // (mirrors src/gpu/rays/mod.rs::{BvhNode, BvhTriangle}, built by
 // src/formfactor/raytrace/flat_bvh.rs). The rules are those of
 // Occluders::visible: every triangle blocks from both sides, Moller-Trumbore
@@ -44,27 +45,33 @@ float bvh_slab(uint node, vec3 a, vec3 inv, float tmin, float tmax) {
 
 // `precise`: no fused multiply-adds, so that the test rounds as the CPU's
 // (occluders.rs::hit_distance) does and grazing hits fall the same way.
-bool bvh_hits(uint k, vec3 a, vec3 d, float tmin, float tmax) {
+// The t where a + t d meets triangle k, when strictly inside (tmin, tmax);
+// -1 otherwise.
+float bvh_hit_t(uint k, vec3 a, vec3 d, float tmin, float tmax) {
     vec3 e1 = bvh_tris[k].e1;
     vec3 e2 = bvh_tris[k].e2;
     precise vec3 p = cross(d, e2);
     precise float det = dot(e1, p);
     if (det == 0.0 || isinf(det) || isnan(det)) {
-        return false;
+        return -1.0;
     }
     precise float inv = 1.0 / det;
     precise vec3 s = a - bvh_tris[k].v0;
     precise float u = dot(s, p) * inv;
     if (!(u >= 0.0 && u <= 1.0)) {
-        return false;
+        return -1.0;
     }
     precise vec3 q = cross(s, e1);
     precise float v = dot(d, q) * inv;
     if (v < 0.0 || u + v > 1.0) {
-        return false;
+        return -1.0;
     }
     precise float t = dot(e2, q) * inv;
-    return t > tmin && t < tmax;
+    return t > tmin && t < tmax ? t : -1.0;
+}
+
+bool bvh_hits(uint k, vec3 a, vec3 d, float tmin, float tmax) {
+    return bvh_hit_t(k, a, d, tmin, tmax) >= 0.0;
 }
 
 float bvh_safe(float x) {
@@ -124,4 +131,70 @@ bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
         node = stack[--sp];
     }
     return true;
+}
+
+// The nearest triangle the ray a + t d (t > tmin) meets, patch `skip`
+// ignored (Occluders::first_hit_beyond): its t, and its patch in
+// `patch_id`; -1 when it meets none.
+float bvh_first_hit(vec3 a, vec3 d, float tmin, uint skip, uint node_count, out uint patch_id) {
+    patch_id = 0xffffffffu;
+    float best = 1.0 / 0.0;
+    if (node_count == 0u) {
+        return -1.0;
+    }
+    vec3 inv = 1.0 / vec3(bvh_safe(d.x), bvh_safe(d.y), bvh_safe(d.z));
+    if (bvh_slab(0u, a, inv, tmin, best) < 0.0) {
+        return -1.0;
+    }
+    uint stack[BVH_STACK];
+    int sp = 0;
+    uint node = 0u;
+    while (true) {
+        uint count = bvh_nodes[node].count;
+        uint index = bvh_nodes[node].index;
+        if (count > 0u) {
+            for (uint k = index; k < index + count; k++) {
+                if (bvh_tris[k].patch_id == skip) {
+                    continue;
+                }
+                float t = bvh_hit_t(k, a, d, tmin, best);
+                if (t >= 0.0) {
+                    best = t;
+                    patch_id = bvh_tris[k].patch_id;
+                }
+            }
+        } else {
+            uint l = node + 1u;
+            uint r = index;
+            float tl = bvh_slab(l, a, inv, tmin, best);
+            float tr = bvh_slab(r, a, inv, tmin, best);
+            if (tl >= 0.0 && tr >= 0.0) {
+                bool left_first = tl <= tr;
+                stack[sp++] = left_first ? r : l;
+                node = left_first ? l : r;
+                continue;
+            }
+            if (tl >= 0.0) {
+                node = l;
+                continue;
+            }
+            if (tr >= 0.0) {
+                node = r;
+                continue;
+            }
+        }
+        // The next box on the stack that the nearest hit so far leaves open.
+        bool found = false;
+        while (sp > 0) {
+            node = stack[--sp];
+            if (bvh_slab(node, a, inv, tmin, best) >= 0.0) {
+                found = true;
+                break;
+            }
+        }
+        if (!found) {
+            break;
+        }
+    }
+    return patch_id == 0xffffffffu ? -1.0 : best;
 }

@@ -11,7 +11,7 @@ use vkrad::formfactor::raytrace::flat_bvh::FlatBvh;
 use vkrad::formfactor::raytrace::Occluders;
 use vkrad::formfactor::sampling::Pcg32;
 use vkrad::gpu::rays::{
-    GatherPoint, GatherSource, GpuBvh, OcclusionPass, Segment, SourceGatherPass,
+    FirstHitPass, GatherPoint, GatherSource, GpuBvh, OcclusionPass, Ray, Segment, SourceGatherPass,
 };
 use vkrad::gpu::Device;
 use vkrad::scene::Scene;
@@ -136,6 +136,78 @@ fn gpu_segments_agree_with_the_occluders_on_cornell() {
 #[test]
 fn gpu_segments_agree_with_the_occluders_on_rfield() {
     segments_agree("rfield", 40_000);
+}
+
+/// Random rays as the final gather's hemisphere rays are cast: from a
+/// point of a random patch, a hair above it, in a random direction over
+/// its front, that patch skipped; the GPU's first hits against
+/// `Occluders::first_hit_beyond`.
+fn first_hits_agree(name: &str, n: usize) {
+    let device = common::device();
+    let scene = vkrad::scene::load_scene_arg(name).unwrap();
+    let occluders = Occluders::new(&scene);
+    let bvh = upload_bvh(&device, &scene);
+    let mut pass = FirstHitPass::with_chunk(&device, bvh, 4096).unwrap();
+    let mut rng = Pcg32::new(0xf1257, 0);
+    let patches = scene.patches.len();
+    let rays: Vec<Ray> = (0..n)
+        .map(|_| {
+            let p = ((rng.next_f32() * patches as f32) as usize).min(patches - 1);
+            let normal = scene.patches[p].normal;
+            let a = point_on(&scene, p, &mut rng) + occluders.epsilon() * normal;
+            let mut d = Vec3::new(
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.5,
+                rng.next_f32() - 0.5,
+            )
+            .normalize_or(normal);
+            if d.dot(normal) < 0.0 {
+                d = -d;
+            }
+            Ray {
+                a: a.into(),
+                skip: p as u32,
+                d: d.into(),
+                tmin: 0.0,
+            }
+        })
+        .collect();
+    let gpu = pass.first_hits(&rays).unwrap();
+    common::assert_validation_clean(&device);
+    assert_eq!(gpu.len(), n);
+    let (mut met, mut differ) = (0, 0);
+    for (ray, hit) in rays.iter().zip(&gpu) {
+        let cpu = occluders.first_hit_beyond(ray.a.into(), ray.d.into(), ray.tmin, ray.skip);
+        met += usize::from(cpu.is_some());
+        // Two patches meeting at an edge are met at the same t: either is
+        // right there.
+        let agree = match (cpu, hit.met()) {
+            (None, None) => true,
+            (Some((tc, _)), Some((tg, _))) => (tc - tg).abs() <= 1e-4 * tc.max(1.0),
+            _ => false,
+        };
+        if !agree {
+            differ += 1;
+            println!("{name}: ray {ray:?}: CPU {cpu:?}, GPU {:?}", hit.met());
+        }
+    }
+    println!("{name}: {n} rays, {met} met a patch, {differ} disagree");
+    assert!(met > n / 10, "{name}: only {met} of {n} rays met a patch");
+    // Grazes only: at most one in a thousand.
+    assert!(
+        differ <= n / 1_000,
+        "{name}: {differ} of {n} rays disagree with Occluders::first_hit_beyond"
+    );
+}
+
+#[test]
+fn gpu_first_hits_agree_with_the_occluders_on_cornell() {
+    first_hits_agree("cornell", 20_000);
+}
+
+#[test]
+fn gpu_first_hits_agree_with_the_occluders_on_rfield() {
+    first_hits_agree("rfield", 20_000);
 }
 
 fn source_of(scene: &Scene, p: usize, radiosity: [f32; 3], rays: u32, early: bool) -> GatherSource {

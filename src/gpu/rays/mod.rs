@@ -21,6 +21,7 @@ use std::time::Instant;
 
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
+use gpu_allocator::MemoryLocation;
 
 use super::commands::{barriers, buffer_barrier, Commands};
 use super::context::Device;
@@ -30,10 +31,12 @@ use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::Result;
 
 mod bvh;
+mod first_hit;
 mod gather;
 mod occlusion;
 
 pub use bvh::GpuBvh;
+pub use first_hit::{FirstHitPass, Hit, Ray};
 pub use gather::{SourceGatherPass, MAX_SOURCE_CORNERS};
 pub use occlusion::OcclusionPass;
 
@@ -233,11 +236,48 @@ impl ComputeJob {
     }
 }
 
+/// A chunked pass's host-written input buffer (`input_bytes`), its
+/// host-read output buffer (`output_bytes`), and its compute job over
+/// `bvh` reading the one and writing the other (bindings 2 and 3).
+fn chunk_job(
+    device: &Arc<Device>,
+    bvh: &GpuBvh,
+    stage: &str,
+    spirv: &[u8],
+    (input_bytes, output_bytes): (u64, u64),
+    push_bytes: u32,
+) -> Result<(Buffer, Buffer, ComputeJob)> {
+    let input = Buffer::new(
+        device,
+        &format!("{stage} input"),
+        input_bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::CpuToGpu,
+    )?;
+    let output = Buffer::new(
+        device,
+        &format!("{stage} output"),
+        output_bytes,
+        vk::BufferUsageFlags::STORAGE_BUFFER,
+        MemoryLocation::GpuToCpu,
+    )?;
+    let job = ComputeJob::new(
+        device,
+        stage,
+        spirv,
+        bvh,
+        &[input.raw(), output.raw()],
+        push_bytes,
+    )?;
+    Ok((input, output, job))
+}
+
 /// The stage name for a submission timed on the CPU.
 fn cpu_timer_name(stage: &'static str) -> &'static str {
     match stage {
         occlusion::STAGE => "ray occlusion (CPU timer)",
         gather::STAGE => "source gather (CPU timer)",
+        first_hit::STAGE => "first-hit rays (CPU timer)",
         _ => "rays (CPU timer)",
     }
 }

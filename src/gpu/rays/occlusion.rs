@@ -2,10 +2,7 @@
 
 use std::sync::Arc;
 
-use ash::vk;
-use gpu_allocator::MemoryLocation;
-
-use super::{ComputeJob, GpuBvh, Segment};
+use super::{chunk_job, ComputeJob, GpuBvh, Segment};
 use crate::error::Result;
 use crate::gpu::context::Device;
 use crate::gpu::memory::Buffer;
@@ -38,28 +35,12 @@ impl OcclusionPass {
     /// of 64); the buffers hold one chunk.
     pub fn with_chunk(device: &Arc<Device>, bvh: Arc<GpuBvh>, chunk: usize) -> Result<Self> {
         let chunk = chunk.max(1).div_ceil(GROUP) * GROUP;
-        let segments = Buffer::new(
-            device,
-            "ray occlusion segments",
+        let bytes = (
             (chunk * std::mem::size_of::<Segment>()) as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::CpuToGpu,
-        )?;
-        let bits = Buffer::new(
-            device,
-            "ray occlusion bits",
             (chunk / 32 * 4) as u64,
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            MemoryLocation::GpuToCpu,
-        )?;
-        let job = ComputeJob::new(
-            device,
-            STAGE,
-            shaders::OCCLUSION_COMP,
-            &bvh,
-            &[segments.raw(), bits.raw()],
-            16,
-        )?;
+        );
+        let (segments, bits, job) =
+            chunk_job(device, &bvh, STAGE, shaders::OCCLUSION_COMP, bytes, 16)?;
         Ok(OcclusionPass {
             bvh,
             segments,
