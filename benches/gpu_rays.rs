@@ -1,7 +1,10 @@
 //! The GPU ray passes (`gpu::rays`) against the CPU on the same work, side
 //! by side in one run: segments per second of `OcclusionPass::visible`
 //! against `Occluders::visible` over rayon (the same segments: between
-//! random points on random patches, both patches skipped), and the
+//! random points on random patches, both patches skipped), first hits of
+//! `FirstHitPass::first_hits` against `Occluders::first_hit_beyond` (rays
+//! from those points over their patch's front, as the gather's
+//! hemisphere rays), and the
 //! emitters' light at N gather points (`SourceGatherPass::gather`) against
 //! a CPU loop doing the same work (exact F, 16 first rays and the corners,
 //! then the full count in penumbrae). Medians of `--repeats` runs, wall
@@ -24,7 +27,7 @@ use vkrad::formfactor::raytrace::flat_bvh::FlatBvh;
 use vkrad::formfactor::raytrace::Occluders;
 use vkrad::formfactor::sampling::Pcg32;
 use vkrad::gpu::rays::{
-    GatherPoint, GatherSource, GpuBvh, OcclusionPass, Segment, SourceGatherPass,
+    FirstHitPass, GatherPoint, GatherSource, GpuBvh, OcclusionPass, Ray, Segment, SourceGatherPass,
 };
 use vkrad::gpu::{Device, DeviceOptions};
 use vkrad::scene::Scene;
@@ -225,6 +228,48 @@ fn main() {
             100.0 * blocked as f64 / n_segments as f64,
             n_segments as f64 / cpu_s / 1e6,
             n_segments as f64 / flat_s / 1e6,
+            n_segments as f64 / gpu_s / 1e6,
+        );
+        // First hits: from the segments' first ends over their patch's
+        // front, towards the second ends (flipped to the front).
+        let hemisphere: Vec<Ray> = segments
+            .iter()
+            .map(|s| {
+                let normal = scene.patches[s.skip0 as usize].normal;
+                let mut d = (Vec3::from(s.b) - Vec3::from(s.a)).normalize_or(normal);
+                if d.dot(normal) < 0.0 {
+                    d = -d;
+                }
+                Ray {
+                    a: (Vec3::from(s.a) + occ.epsilon() * normal).into(),
+                    skip: s.skip0,
+                    d: d.into(),
+                    tmin: 0.0,
+                }
+            })
+            .collect();
+        let (cpu_s, cpu_hits) = timed(repeats, || {
+            hemisphere
+                .par_iter()
+                .map(|r| occ.first_hit_beyond(r.a.into(), r.d.into(), r.tmin, r.skip))
+                .collect::<Vec<_>>()
+        });
+        let mut first = FirstHitPass::new(&device, bvh.clone()).expect("first-hit pass");
+        let (gpu_s, gpu_hits) = timed(repeats, || {
+            first.first_hits(&hemisphere).expect("gpu first hits")
+        });
+        let differ = cpu_hits
+            .iter()
+            .zip(&gpu_hits)
+            .filter(|(c, g)| match (c, g.met()) {
+                (None, None) => false,
+                (Some((tc, _)), Some((tg, _))) => (tc - tg).abs() > 1e-4 * tc.max(1.0),
+                _ => true,
+            })
+            .count();
+        println!(
+            "    first hits: {n_segments}: CPU obvhs {:.2} Mrays/s ({threads} threads), GPU {:.2} Mrays/s; {differ} disagree",
+            n_segments as f64 / cpu_s / 1e6,
             n_segments as f64 / gpu_s / 1e6,
         );
         // The emitters' light at points on random patches.
