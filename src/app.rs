@@ -507,6 +507,7 @@ pub fn run_scene(
     });
     let mut reflected_reuse = (0, 0);
     let mut direct_on_gpu = false;
+    let mut hemisphere_rays = None;
     let mut centres_gathered = 0;
     let mut pixel_image = None;
     let shown = match &final_gather {
@@ -581,6 +582,9 @@ pub fn run_scene(
                         };
                         reflected_reuse = gather.reflected_reuse();
                         direct_on_gpu = gather.direct_on_gpu();
+                        hemisphere_rays = gather
+                            .by_hemisphere_rays()
+                            .then(|| gather.hemisphere_rays_on_gpu());
                         centres_gathered = gather.centres_gathered();
                         warnings.extend(gather.gpu_warning());
                         shaded
@@ -686,6 +690,7 @@ pub fn run_scene(
         gather_passes: final_gather.map(|g| g.source_passes),
         reflected_reuse,
         direct_on_gpu,
+        hemisphere_rays,
         centres_gathered,
         gathered_at_pixels,
     })

@@ -75,6 +75,10 @@ pub struct Report {
     /// Whether the GPU gathered the emitters' direct light
     /// (`--direct-light`).
     pub direct_on_gpu: bool,
+    /// Whether hemisphere rays gathered the reflected light (a scene of
+    /// small patches), and then whether the pixels' were traced on the GPU
+    /// (`--hemisphere-device`).
+    pub hemisphere_rays: Option<bool>,
     /// Where the image was gathered at its pixels
     /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
     /// vertex values: the points its reflected light and its direct light
@@ -150,6 +154,11 @@ impl Report {
             "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
             "centres_gathered": self.centres_gathered,
             "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
+            "hemisphere_rays": match self.hemisphere_rays {
+                None => "none",
+                Some(true) => "gpu",
+                Some(false) => "cpu",
+            },
             "image_gathered_at": match self.gathered_at_pixels {
                 Some((reflected, direct)) => serde_json::json!({ "pixels": { "reflected_points": reflected, "direct_points": direct } }),
                 None => serde_json::json!("vertices"),

@@ -40,12 +40,16 @@ use glam::Vec3;
 
 use super::links::Links;
 use super::point_gather::Gather;
+use super::point_gather::RANDOM_SEED as SEED;
 use super::receiver::Receiver;
 use super::reflected_cache::HarmonicDistance;
+use super::Frame;
 use crate::formfactor::sampling::{grid, Pcg32};
 use crate::geom::tangent_frame;
+use crate::gpu::rays::{Hit, Ray};
 use crate::scene::{Patch, Scene};
 use crate::solve::hierarchy::ShooterTree;
+use rayon::prelude::*;
 
 /// A patch under this share of the scene's area is small.
 pub(super) const SMALL_PATCH: f32 = 1e-3;
@@ -128,6 +132,30 @@ pub(super) struct RayGathered {
 }
 
 impl Gather<'_> {
+    /// The origin and directions of `at`'s hemisphere rays: stratified,
+    /// cosine-distributed (Malley: uniform on the disc, lifted), from a
+    /// hair above the surface (a ray may then meet a wall the point
+    /// nearly touches, a room's corner, but not a patch beside it in its
+    /// own plane).
+    fn hemisphere_directions(&self, at: &Receiver, rng: &mut Pcg32) -> (Vec3, Vec<Vec3>) {
+        let (t, b) = tangent_frame(at.n);
+        let (rows, cols) = grid(self.hemisphere_rays.rays);
+        let mut directions = Vec::with_capacity(rows * cols);
+        for r in 0..rows {
+            for c in 0..cols {
+                let u = (r as f32 + rng.next_f32()) / rows as f32;
+                let w = (c as f32 + rng.next_f32()) / cols as f32;
+                let (radius, phi) = (u.sqrt(), 2.0 * PI * w);
+                directions.push(
+                    t * (radius * phi.cos())
+                        + b * (radius * phi.sin())
+                        + at.n * (1.0 - u).max(0.0).sqrt(),
+                );
+            }
+        }
+        (at.p + self.occluders.epsilon() * at.n, directions)
+    }
+
     /// The light the patches the rays gather reflect onto `at`: the mean,
     /// over stratified cosine-distributed rays, of the radiosity where each
     /// lands on such a patch's front. With `distance`, each landing's
@@ -137,6 +165,29 @@ impl Gather<'_> {
         &self,
         at: &Receiver,
         rng: &mut Pcg32,
+        distance: Option<&mut HarmonicDistance>,
+        links: Option<&mut Links>,
+    ) -> RayGathered {
+        if !self.hemisphere_rays.any() {
+            return RayGathered {
+                clearance: f32::INFINITY,
+                ..RayGathered::default()
+            };
+        }
+        let (origin, directions) = self.hemisphere_directions(at, rng);
+        let hits = directions
+            .iter()
+            .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
+        self.landings(origin, &directions, hits, distance, links)
+    }
+
+    /// What the rays from `origin` along `directions` read where they
+    /// landed (`hits`: `(t, patch)` each, `None` for nothing).
+    fn landings(
+        &self,
+        origin: Vec3,
+        directions: &[Vec3],
+        hits: impl Iterator<Item = Option<(f32, u32)>>,
         mut distance: Option<&mut HarmonicDistance>,
         mut links: Option<&mut Links>,
     ) -> RayGathered {
@@ -145,63 +196,102 @@ impl Gather<'_> {
             clearance: f32::INFINITY,
             ..RayGathered::default()
         };
-        if !rays.any() {
-            return out;
-        }
-        let (t, b) = tangent_frame(at.n);
-        let (rows, cols) = grid(rays.rays);
-        let weight = 1.0 / (rows * cols) as f32;
-        // From a hair above the surface: a ray may then meet a wall the
-        // point nearly touches (a room's corner) but not a patch beside it
-        // in its own plane.
-        let origin = at.p + self.occluders.epsilon() * at.n;
-        for r in 0..rows {
-            for c in 0..cols {
-                let u = (r as f32 + rng.next_f32()) / rows as f32;
-                let w = (c as f32 + rng.next_f32()) / cols as f32;
-                // Malley: uniform on the disc, lifted to the hemisphere.
-                let (radius, phi) = (u.sqrt(), 2.0 * PI * w);
-                let d = t * (radius * phi.cos())
-                    + b * (radius * phi.sin())
-                    + at.n * (1.0 - u).max(0.0).sqrt();
-                let Some((dist, patch)) = self.occluders.first_hit_beyond(origin, d, 0.0, at.patch)
-                else {
-                    continue;
-                };
-                out.clearance = out.clearance.min(dist);
-                if !rays.gathers(patch) {
-                    continue;
-                }
-                let root = rays.root[patch as usize];
-                if root == u32::MAX || self.tree.nodes[root as usize].normal.dot(d) >= 0.0 {
-                    continue; // a patch's back is black
-                }
-                let y = origin + dist * d;
-                let Some(element) = self.leaf_under(root, y) else {
-                    continue;
-                };
-                let node = self.tree.leaf[element as usize];
-                let src = &self.sources[node as usize];
-                let lit = match &self.direct_map {
-                    Some(map) => src.rho * map.at(element, y).unwrap_or(Vec3::ZERO),
-                    None => Vec3::ZERO,
-                };
-                let rest = match self.direct_map {
-                    Some(_) => src.rest(),
-                    None => src.radiosity,
-                };
-                out.reflected += weight * (rest + lit * self.direct_scale);
-                if let Some(distance) = distance.as_deref_mut() {
-                    distance.add(weight, dist);
-                }
-                if let Some(links) = links.as_deref_mut() {
-                    match self.direct_map {
-                        Some(_) => links.take_lit(node, weight, weight * lit),
-                        None => links.take(node, weight),
-                    }
+        let weight = 1.0 / directions.len().max(1) as f32;
+        for (&d, hit) in directions.iter().zip(hits) {
+            let Some((dist, patch)) = hit else {
+                continue;
+            };
+            out.clearance = out.clearance.min(dist);
+            if !rays.gathers(patch) {
+                continue;
+            }
+            let root = rays.root[patch as usize];
+            if root == u32::MAX || self.tree.nodes[root as usize].normal.dot(d) >= 0.0 {
+                continue; // a patch's back is black
+            }
+            let y = origin + dist * d;
+            let Some(element) = self.leaf_under(root, y) else {
+                continue;
+            };
+            let node = self.tree.leaf[element as usize];
+            let src = &self.sources[node as usize];
+            let lit = match &self.direct_map {
+                Some(map) => src.rho * map.at(element, y).unwrap_or(Vec3::ZERO),
+                None => Vec3::ZERO,
+            };
+            let rest = match self.direct_map {
+                Some(_) => src.rest(),
+                None => src.radiosity,
+            };
+            out.reflected += weight * (rest + lit * self.direct_scale);
+            if let Some(distance) = distance.as_deref_mut() {
+                distance.add(weight, dist);
+            }
+            if let Some(links) = links.as_deref_mut() {
+                match self.direct_map {
+                    Some(_) => links.take_lit(node, weight, weight * lit),
+                    None => links.take(node, weight),
                 }
             }
         }
         out
+    }
+
+    /// The reflected light at `frames` (frame `i`'s rays following random
+    /// stream `streams[i]`, as [`Self::light_at`] draws them) with its
+    /// hemisphere rays traced on the GPU; `None` where the GPU has none
+    /// or fails (the CPU then traces them).
+    pub(super) fn reflected_by_gpu_rays(
+        &self,
+        frames: &[Frame],
+        streams: &[u64],
+    ) -> Option<Vec<Vec3>> {
+        let gpu = self.gpu_rays.as_ref()?;
+        let mut guard = gpu.lock().ok()?;
+        let pass = guard.as_mut()?;
+        let cast: Vec<(Vec3, Vec<Vec3>)> = frames
+            .par_iter()
+            .zip(streams)
+            .map(|(&(p, n, patch), &stream)| {
+                let mut rng = Pcg32::new(SEED, stream);
+                let at = Receiver {
+                    p,
+                    n,
+                    patch,
+                    emitter_rays: 0,
+                };
+                self.hemisphere_directions(&at, &mut rng)
+            })
+            .collect();
+        let rays: Vec<Ray> = cast
+            .iter()
+            .zip(frames)
+            .flat_map(|((origin, directions), frame)| {
+                directions.iter().map(move |d| Ray {
+                    a: origin.to_array(),
+                    skip: frame.2,
+                    d: d.to_array(),
+                    tmin: 0.0,
+                })
+            })
+            .collect();
+        let hits = match pass.first_hits(&rays) {
+            Ok(hits) => hits,
+            Err(_) => {
+                *guard = None;
+                return None;
+            }
+        };
+        let per_point = self.hemisphere_rays.rays.max(1);
+        Some(
+            cast.par_iter()
+                .zip(hits.par_chunks(per_point))
+                .map(|((origin, directions), hits)| {
+                    let met = hits.iter().map(Hit::met);
+                    self.landings(*origin, directions, met, None, None)
+                        .reflected
+                })
+                .collect(),
+        )
     }
 }

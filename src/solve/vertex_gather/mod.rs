@@ -28,7 +28,7 @@
 //! the emitters stay exact.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use glam::Vec3;
 
@@ -46,7 +46,9 @@ use self::sources::{sources, Source};
 pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
 
+use crate::formfactor::raytrace::flat_bvh::FlatBvh;
 use crate::formfactor::raytrace::Occluders;
+use crate::gpu::rays::{FirstHitPass, GpuBvh};
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -95,6 +97,9 @@ pub struct VertexGather {
     /// in a scene of small patches ([`hemisphere_rays`]); 0: every patch
     /// is visited as a source, for comparison.
     pub hemisphere_rays: usize,
+    /// Where the hemisphere rays of the pixels' reflected points are
+    /// traced (the element centres' and display vertices' on the CPU).
+    pub hemisphere_device: DirectLight,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -121,6 +126,17 @@ pub enum DirectLight {
     Auto,
     Cpu,
     Gpu,
+}
+
+impl DirectLight {
+    /// Whether the work this choice governs runs on `device`'s GPU.
+    pub fn on_gpu(self, device: &Device) -> bool {
+        match self {
+            DirectLight::Auto => !device.is_cpu(),
+            DirectLight::Cpu => false,
+            DirectLight::Gpu => true,
+        }
+    }
 }
 
 impl VertexGather {
@@ -150,6 +166,7 @@ impl Default for VertexGather {
             lit_samples: true,
             share_centres: true,
             hemisphere_rays: HEMISPHERE_RAYS,
+            hemisphere_device: DirectLight::Auto,
         }
     }
 }
@@ -411,13 +428,25 @@ impl<'a> FinalGather<'a> {
             direct_map: None,
             direct_scale: Vec3::ONE,
             hemisphere_rays,
+            gpu_rays: None,
         };
         let mut gpu_refused = None;
-        let on_gpu = |device: &Device| match settings.direct_light {
-            DirectLight::Auto => !device.is_cpu(),
-            DirectLight::Cpu => false,
-            DirectLight::Gpu => true,
-        };
+        let on_gpu = |device: &Device| settings.direct_light.on_gpu(device);
+        if let Some(device) = device.filter(|d| settings.hemisphere_device.on_gpu(d)) {
+            if gather.hemisphere_rays.any() {
+                let flat = FlatBvh::new(scene);
+                let pass = GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps)
+                    .and_then(|bvh| FirstHitPass::new(device, Arc::new(bvh)));
+                match pass {
+                    Ok(pass) => gather.gpu_rays = Some(Mutex::new(Some(pass))),
+                    Err(e) => {
+                        gpu_refused = Some(format!(
+                            "the GPU cannot trace the hemisphere rays ({e}); the CPU did"
+                        ))
+                    }
+                }
+            }
+        }
         if let Some(device) = device.filter(|d| on_gpu(d)) {
             match GpuDirect::new(device, scene) {
                 Ok(gpu) => gather.gpu_direct = Some(gpu),
@@ -586,6 +615,19 @@ impl<'a> FinalGather<'a> {
     /// Whether the GPU gathers the emitters' direct light.
     pub fn direct_on_gpu(&self) -> bool {
         self.gather.gpu_direct.is_some()
+    }
+
+    /// Whether the reflected light is gathered by hemisphere rays
+    /// ([`hemisphere_rays`]: a scene of small patches).
+    pub fn by_hemisphere_rays(&self) -> bool {
+        self.gather.hemisphere_rays.any()
+    }
+
+    /// Whether the pixels' reflected light is gathered by hemisphere rays
+    /// traced on the GPU (and the GPU has not failed at it).
+    pub fn hemisphere_rays_on_gpu(&self) -> bool {
+        let working = |pass: &Mutex<Option<FirstHitPass>>| pass.lock().is_ok_and(|p| p.is_some());
+        self.gather.hemisphere_rays.any() && self.gather.gpu_rays.as_ref().is_some_and(working)
     }
 
     /// How many points so far took their reflected light from the

@@ -6,7 +6,7 @@
 
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -26,9 +26,13 @@ use super::{
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
 use crate::geom::tangent_frame;
+use crate::gpu::rays::FirstHitPass;
 use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
 use crate::trace::{self, TracedMap};
+
+/// Seeds every point's rays (its place in its list the stream).
+pub(super) const RANDOM_SEED: u64 = 0x005e_ed0f_9a7e;
 
 /// What both passes share.
 pub(super) struct Gather<'a> {
@@ -61,6 +65,10 @@ pub(super) struct Gather<'a> {
     pub(super) direct_scale: Vec3,
     /// The patches whose light hemisphere rays gather.
     pub(super) hemisphere_rays: HemisphereRays,
+    /// The GPU pass that traces the hemisphere rays of the pixels'
+    /// reflected points, when asked for (`None` inside after a failure:
+    /// the CPU then traces them).
+    pub(super) gpu_rays: Option<Mutex<Option<FirstHitPass>>>,
 }
 
 /// What a gather does with the points' links ([`Links`]).
@@ -198,6 +206,9 @@ impl Gather<'_> {
                 Some(gpu) if direct => {
                     gpu.direct(first_stream as usize + first, chunk, emitter_rays)
                 }
+                _ if !direct && self.gpu_rays.is_some() && self.hemisphere_rays.any() => {
+                    self.reflected_on_gpu(chunk, stream + first as u64)
+                }
                 _ => None,
             };
             if let Some(values) = on_gpu {
@@ -211,7 +222,7 @@ impl Gather<'_> {
                             return reflected;
                         }
                     }
-                    let mut rng = Pcg32::new(0x005e_ed0f_9a7e, stream + (first + i) as u64);
+                    let mut rng = Pcg32::new(RANDOM_SEED, stream + (first + i) as u64);
                     let at = Receiver {
                         p,
                         n,
@@ -225,6 +236,32 @@ impl Gather<'_> {
             if !meter.advance(chunk.len()) {
                 return None;
             }
+        }
+        Some(out)
+    }
+
+    /// The reflected light at `chunk` (its rays following random streams
+    /// from `stream` on) in a scene whose reflected light the hemisphere
+    /// rays gather alone: from the reflected cache where a record is
+    /// valid, the rest with their rays traced on the GPU. `None` when the
+    /// GPU fails.
+    fn reflected_on_gpu(&self, chunk: &[Frame], stream: u64) -> Option<Vec<Vec3>> {
+        let cached: Vec<Option<Vec3>> = chunk
+            .par_iter()
+            .map(|&(p, n, patch)| {
+                let cache = self.reflected_cache.as_ref()?;
+                let cached = cache.lookup(p, n, patch);
+                self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
+                cached
+            })
+            .collect();
+        let todo: Vec<usize> = (0..chunk.len()).filter(|&i| cached[i].is_none()).collect();
+        let frames: Vec<Frame> = todo.iter().map(|&i| chunk[i]).collect();
+        let streams: Vec<u64> = todo.iter().map(|&i| stream + i as u64).collect();
+        let traced = self.reflected_by_gpu_rays(&frames, &streams)?;
+        let mut out: Vec<Vec3> = cached.into_iter().map(Option::unwrap_or_default).collect();
+        for (&i, value) in todo.iter().zip(traced) {
+            out[i] = value;
         }
         Some(out)
     }
@@ -360,7 +397,7 @@ impl Gather<'_> {
                 patch,
                 emitter_rays: self.settings.emitter_rays,
             };
-            let mut rng = Pcg32::new(0x005e_ed0f_9a7e, k as u64);
+            let mut rng = Pcg32::new(RANDOM_SEED, k as u64);
             let cached = self
                 .reflected_cache
                 .as_ref()
