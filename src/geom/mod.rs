@@ -1,7 +1,8 @@
 //! Geometry shared by every stage, written once: Newell normals and polygon
 //! areas, tangent frames, the disjoint sets that join touching pieces
-//! (shared edges, smooth surfaces), and the reverse-Z frusta of the
-//! hemicube, the discontinuity mesher's visibility tiles and the camera.
+//! (shared edges, smooth surfaces), a convex polygon's point nearest to
+//! another, and the reverse-Z frusta of the hemicube, the discontinuity
+//! mesher's visibility tiles and the camera.
 
 use glam::{DVec3, Vec3};
 
@@ -44,6 +45,26 @@ pub fn set_root(parent: &mut [usize], mut x: usize) -> usize {
         x = parent[x];
     }
     x
+}
+
+/// The point of the convex polygon `poly` (normal `normal`) nearest to
+/// `q`, which lies in its plane.
+pub fn nearest_in_polygon(poly: &[Vec3], normal: Vec3, q: Vec3) -> Vec3 {
+    let edges = (0..poly.len()).map(|k| (poly[k], poly[(k + 1) % poly.len()]));
+    if edges
+        .clone()
+        .all(|(a, b)| (b - a).cross(q - a).dot(normal) >= 0.0)
+    {
+        return q;
+    }
+    edges
+        .map(|(a, b)| {
+            let t = ((q - a).dot(b - a) / (b - a).length_squared().max(f32::MIN_POSITIVE))
+                .clamp(0.0, 1.0);
+            a + t * (b - a)
+        })
+        .min_by(|x, y| x.distance_squared(q).total_cmp(&y.distance_squared(q)))
+        .unwrap_or(q)
 }
 
 #[cfg(test)]

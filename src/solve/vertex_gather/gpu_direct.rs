@@ -29,6 +29,28 @@ use crate::gpu::Device;
 use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
 
+/// Where the final gather's direct light is gathered.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectLight {
+    /// On the GPU when the device is one, on the CPU when the device is
+    /// the CPU itself (lavapipe: there the GPU pass is 3-6x slower than
+    /// the CPU's own rays, `cargo bench --bench gpu_rays`).
+    Auto,
+    Cpu,
+    Gpu,
+}
+
+impl DirectLight {
+    /// Whether the work this choice governs runs on `device`'s GPU.
+    pub fn on_gpu(self, device: &Device) -> bool {
+        match self {
+            DirectLight::Auto => !device.is_cpu(),
+            DirectLight::Cpu => false,
+            DirectLight::Gpu => true,
+        }
+    }
+}
+
 /// Seeds the GPU's rays (with each point's number as its stream).
 const SEED: u32 = 0x9a7e;
 

@@ -34,8 +34,10 @@ use glam::Vec3;
 
 use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart};
+pub use self::gpu_direct::DirectLight;
 use self::gpu_direct::GpuDirect;
-use self::hemisphere_rays::HemisphereRays;
+pub use self::hemisphere_rays::HEMISPHERE_RAYS;
+use self::hemisphere_rays::{HemisphereRays, CENTRE_RAYS_SHARE};
 use self::links::Links;
 pub use self::links::LINKS_BUDGET;
 use self::lit_samples::Emitters;
@@ -46,9 +48,8 @@ use self::sources::{sources, Source};
 pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
 
-use crate::formfactor::raytrace::flat_bvh::FlatBvh;
 use crate::formfactor::raytrace::Occluders;
-use crate::gpu::rays::{FirstHitPass, GpuBvh};
+use crate::gpu::rays::FirstHitPass;
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -117,28 +118,6 @@ pub enum PointLight {
     Direct { samples: u32 },
 }
 
-/// Where the final gather's direct light is gathered.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum DirectLight {
-    /// On the GPU when the device is one, on the CPU when the device is
-    /// the CPU itself (lavapipe: there the GPU pass is 3-6x slower than
-    /// the CPU's own rays, `cargo bench --bench gpu_rays`).
-    Auto,
-    Cpu,
-    Gpu,
-}
-
-impl DirectLight {
-    /// Whether the work this choice governs runs on `device`'s GPU.
-    pub fn on_gpu(self, device: &Device) -> bool {
-        match self {
-            DirectLight::Auto => !device.is_cpu(),
-            DirectLight::Cpu => false,
-            DirectLight::Gpu => true,
-        }
-    }
-}
-
 impl VertexGather {
     /// How many times the gather traces from every element centre: the
     /// first Jacobi pass (the later ones reuse its links), or without
@@ -171,26 +150,6 @@ impl Default for VertexGather {
     }
 }
 
-/// The point of the convex polygon `poly` (normal `normal`) nearest to
-/// `q`, which lies in its plane.
-fn nearest_in_polygon(poly: &[Vec3], normal: Vec3, q: Vec3) -> Vec3 {
-    let edges = (0..poly.len()).map(|k| (poly[k], poly[(k + 1) % poly.len()]));
-    if edges
-        .clone()
-        .all(|(a, b)| (b - a).cross(q - a).dot(normal) >= 0.0)
-    {
-        return q;
-    }
-    edges
-        .map(|(a, b)| {
-            let t = ((q - a).dot(b - a) / (b - a).length_squared().max(f32::MIN_POSITIVE))
-                .clamp(0.0, 1.0);
-            a + t * (b - a)
-        })
-        .min_by(|x, y| x.distance_squared(q).total_cmp(&y.distance_squared(q)))
-        .unwrap_or(q)
-}
-
 /// A reflecting leaf whose form factor from the receiver is over the first
 /// value starts to lend the radiosity beside the receiver
 /// ([`Gather::beside`]) instead of its mean; over the second, only that.
@@ -209,18 +168,6 @@ const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 /// same lit error (3.48% against 3.49%, bias -0.10% against -0.55%), the
 /// Cornell box's unchanged (1.70%); 0.2 and 0.4 gained no more.
 pub const LINK_ERROR: f32 = 0.1;
-
-/// Default [`VertexGather::hemisphere_rays`]. Measured on `rfield` at
-/// 256x256 against the path-traced reference (65,536 spp), whole
-/// commands on 2 cores: 128 rays 2.11% lit error in 4.0 s, 256 1.98% in
-/// 4.7 s, 512 1.94% in 6.3 s (visiting every patch: 2.01% in 8.7 s).
-pub const HEMISPHERE_RAYS: usize = 256;
-
-/// The element centres send this share of [`VertexGather::hemisphere_rays`].
-/// Measured on `rfield` (whole commands, 2 cores, interleaved): all of
-/// them 1.983% lit error in 4.89 s, half 1.987% in 4.65 s, a quarter
-/// 2.012%, an eighth 2.040% in 4.27 s.
-const CENTRE_RAYS_SHARE: usize = 2;
 
 /// Default [`VertexGather::reuse`].
 ///
@@ -434,10 +381,7 @@ impl<'a> FinalGather<'a> {
         let on_gpu = |device: &Device| settings.direct_light.on_gpu(device);
         if let Some(device) = device.filter(|d| settings.hemisphere_device.on_gpu(d)) {
             if gather.hemisphere_rays.any() {
-                let flat = FlatBvh::new(scene);
-                let pass = GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps)
-                    .and_then(|bvh| FirstHitPass::new(device, Arc::new(bvh)));
-                match pass {
+                match HemisphereRays::gpu_pass(scene, device) {
                     Ok(pass) => gather.gpu_rays = Some(Mutex::new(Some(pass))),
                     Err(e) => {
                         gpu_refused = Some(format!(

@@ -20,12 +20,12 @@ use super::lit_samples::{DirectMeans, Emitters, POINT_RAYS};
 use super::receiver::Receiver;
 use super::reflected_cache::{HarmonicDistance, ReflectedCache};
 use super::{
-    is_even, nearest_in_polygon, Frame, Meter, PointLight, Source, VertexGather, CHUNK, CLOSE_FF,
-    NEAR_RADIUS, PIXEL_EMITTER_RAYS,
+    is_even, Frame, Meter, PointLight, Source, VertexGather, CHUNK, CLOSE_FF, NEAR_RADIUS,
+    PIXEL_EMITTER_RAYS,
 };
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
-use crate::geom::tangent_frame;
+use crate::geom::{nearest_in_polygon, tangent_frame};
 use crate::gpu::rays::FirstHitPass;
 use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
