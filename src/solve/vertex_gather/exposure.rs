@@ -27,14 +27,21 @@ pub(super) struct ExposedPart {
 }
 
 /// Points per element side, and directions per point, of the exposure test.
-const EXPOSURE_GRID: usize = 4;
+pub(super) const EXPOSURE_GRID: usize = 4;
 const EXPOSURE_RAYS: usize = 8;
 
 /// Every element's exposed part, from a grid of points on it: a point is
 /// enclosed when every one of a few cosine-distributed rays from it meets
 /// the back of a surface (the inside of a box standing on it); one ray that
-/// escapes or meets a front makes it exposed.
-pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -> Vec<ExposedPart> {
+/// escapes or meets a front makes it exposed. `grid` points a side
+/// ([`EXPOSURE_GRID`], or more where hemisphere rays read the direct light
+/// at the points, [`LANDING_EXPOSURE_GRID`](super::hemisphere_rays::LANDING_EXPOSURE_GRID)).
+pub(super) fn exposed_parts(
+    scene: &Scene,
+    mesh: &Mesh,
+    occluders: &Occluders,
+    grid: usize,
+) -> Vec<ExposedPart> {
     mesh.elements
         .par_iter()
         .enumerate()
@@ -48,10 +55,10 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
             let (t, b) = tangent_frame(el.normal);
             let mut rng = Pcg32::new(0x00e0_05ed, k as u64);
             let (mut points, mut centre) = (Vec::new(), Vec3::ZERO);
-            for i in 0..EXPOSURE_GRID {
-                for j in 0..EXPOSURE_GRID {
-                    let u = (i as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
-                    let w = (j as f32 + rng.next_f32()) / EXPOSURE_GRID as f32;
+            for i in 0..grid {
+                for j in 0..grid {
+                    let u = (i as f32 + rng.next_f32()) / grid as f32;
+                    let w = (j as f32 + rng.next_f32()) / grid as f32;
                     let p = sampler.point(u, w);
                     if !encloses(scene, occluders, p, el.normal, (t, b), &mut rng) {
                         points.push(p);
@@ -59,7 +66,7 @@ pub(super) fn exposed_parts(scene: &Scene, mesh: &Mesh, occluders: &Occluders) -
                     }
                 }
             }
-            let (exposed, all) = (points.len(), EXPOSURE_GRID * EXPOSURE_GRID);
+            let (exposed, all) = (points.len(), grid * grid);
             ExposedPart {
                 share: exposed as f32 / all as f32,
                 centre: if exposed > 0 && exposed < all {

@@ -33,11 +33,11 @@ use std::sync::{Arc, Mutex, OnceLock};
 use glam::Vec3;
 
 use self::clusters::Clusters;
-use self::exposure::{exposed_parts, ExposedPart};
+use self::exposure::{exposed_parts, ExposedPart, EXPOSURE_GRID};
 pub use self::gpu_direct::DirectLight;
 use self::gpu_direct::GpuDirect;
 pub use self::hemisphere_rays::HEMISPHERE_RAYS;
-use self::hemisphere_rays::{HemisphereRays, CENTRE_RAYS_SHARE};
+use self::hemisphere_rays::{HemisphereRays, CENTRE_RAYS_SHARE, LANDING_EXPOSURE_GRID};
 use self::links::Links;
 pub use self::links::LINKS_BUDGET;
 use self::lit_samples::Emitters;
@@ -340,7 +340,15 @@ impl<'a> FinalGather<'a> {
         // A solved element partly under a box has its light spread over its
         // whole area, the covered part included: the part that shows is
         // brighter than that mean by 1 / (exposed share).
-        let exposed = exposed_parts(scene, solved, &occluders);
+        // In a scene of small patches hemisphere rays gather the reflected
+        // light (and read the direct light at the exposed points); the
+        // clusters and the exact gather take the rest.
+        let hemisphere_rays = HemisphereRays::new(scene, tree, settings.hemisphere_rays);
+        let grid = match hemisphere_rays.any() {
+            true => LANDING_EXPOSURE_GRID,
+            false => EXPOSURE_GRID,
+        };
+        let exposed = exposed_parts(scene, solved, &occluders, grid);
         let undiluted: Vec<[f32; 3]> = radiosity
             .iter()
             .zip(&exposed)
@@ -351,9 +359,6 @@ impl<'a> FinalGather<'a> {
             .collect();
         let first = sources(scene, solved, tree, &undiluted, &exposed, None);
         let roots = tree.roots();
-        // In a scene of small patches hemisphere rays gather the reflected
-        // light; the clusters and the exact gather take the rest.
-        let hemisphere_rays = HemisphereRays::new(scene, tree, settings.hemisphere_rays);
         let exact_roots: Vec<u32> = roots
             .iter()
             .copied()

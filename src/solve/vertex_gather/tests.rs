@@ -258,7 +258,7 @@ fn the_floor_under_a_box_is_enclosed_and_beside_it_exposed() {
     let refs: Vec<&[Vec3]> = polygons.iter().map(|f| f.as_slice()).collect();
     let s = scene(&refs);
     let mesh = uniform(&s, 1.0);
-    let parts = exposed_parts(&s, &mesh, &Occluders::new(&s));
+    let parts = exposed_parts(&s, &mesh, &Occluders::new(&s), exposure::EXPOSURE_GRID);
     for (el, part) in mesh.elements.iter().zip(&parts) {
         if el.patch != 0 {
             // The box's own faces look out.
@@ -373,7 +373,7 @@ fn the_foot_of_a_box_face_sees_the_floor_in_front_of_it() {
     let mesh = uniform(&s, crate::mesh::default_max_edge(&s));
     let tree = ShooterTree::new(&s, &mesh);
     let occluders = Occluders::new(&s);
-    let shares = exposure::exposed_parts(&s, &mesh, &occluders);
+    let shares = exposure::exposed_parts(&s, &mesh, &occluders, exposure::EXPOSURE_GRID);
     let b: Vec<[f32; 3]> = mesh
         .elements
         .iter()
@@ -938,7 +938,7 @@ fn small_elements_that_share_their_reflected_gather_keep_the_room_balanced_and_a
     // `a_closed_room_lit_by_a_ceiling_patch_balances_its_energy`) moves
     // little, and the shared values stay close to each centre's own.
     let (s, mesh, light) = room_of_fine_walls(24, 2.0);
-    let exposed = exposed_parts(&s, &mesh, &Occluders::new(&s));
+    let exposed = exposed_parts(&s, &mesh, &Occluders::new(&s), exposure::EXPOSURE_GRID);
     let surface = s.smooth_surfaces();
     let shared = SharedCentres::new(&mesh, &exposed, &surface);
     assert!(
