@@ -137,8 +137,7 @@ impl Occluders {
 impl Occluders {
     /// The first patch that the ray `a + t d`, t > 0, meets: `(t, patch)`.
     pub fn first_hit(&self, a: Vec3, d: Vec3) -> Option<(f32, u32)> {
-        self.first_hit_triangle(a, d, 0.0, u32::MAX)
-            .map(|(t, id)| (t, self.tris[id].patch))
+        self.first_hit_beyond(a, d, 0.0, u32::MAX)
     }
 
     /// The first patch the ray `a + t d`, `t > tmin`, meets, ignoring

@@ -29,12 +29,14 @@ use crate::gpu::Device;
 use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
 
-/// Where the final gather's direct light is gathered.
+/// Where one of the final gather's GPU ray passes runs: the emitters'
+/// direct light ([`VertexGather::direct_light`](super::VertexGather::direct_light)) or the pixels'
+/// hemisphere rays ([`VertexGather::hemisphere_device`](super::VertexGather::hemisphere_device)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectLight {
     /// On the GPU when the device is one, on the CPU when the device is
-    /// the CPU itself (lavapipe: there the GPU pass is 3-6x slower than
-    /// the CPU's own rays, `cargo bench --bench gpu_rays`).
+    /// the CPU itself (lavapipe: there both passes are slower than the
+    /// CPU's own rays, `cargo bench --bench gpu_rays`).
     Auto,
     Cpu,
     Gpu,

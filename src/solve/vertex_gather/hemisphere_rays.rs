@@ -95,6 +95,9 @@ pub(super) struct HemisphereRays {
     root: Vec<u32>,
     /// Cosine-distributed rays per point.
     pub(super) rays: usize,
+    /// Whether the rays gather anything (decided once: the gather asks
+    /// at every point).
+    any: bool,
 }
 
 impl HemisphereRays {
@@ -126,6 +129,7 @@ impl HemisphereRays {
             gathers,
             root,
             rays,
+            any: by_rays,
         }
     }
 
@@ -147,7 +151,7 @@ impl HemisphereRays {
 
     /// Whether any patch is gathered by the rays.
     pub(super) fn any(&self) -> bool {
-        self.rays > 0 && self.gathers.iter().any(|&s| s)
+        self.any
     }
 
     /// Whether patch `patch` is gathered by the rays.

@@ -575,8 +575,9 @@ impl<'a> FinalGather<'a> {
     /// Whether the pixels' reflected light is gathered by hemisphere rays
     /// traced on the GPU (and the GPU has not failed at it).
     pub fn hemisphere_rays_on_gpu(&self) -> bool {
+        // The pass is made only where the rays gather.
         let working = |pass: &Mutex<Option<FirstHitPass>>| pass.lock().is_ok_and(|p| p.is_some());
-        self.gather.hemisphere_rays.any() && self.gather.gpu_rays.as_ref().is_some_and(working)
+        self.gather.gpu_rays.as_ref().is_some_and(working)
     }
 
     /// How many points so far took their reflected light from the

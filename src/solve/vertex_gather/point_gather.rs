@@ -206,7 +206,7 @@ impl Gather<'_> {
                 Some(gpu) if direct => {
                     gpu.direct(first_stream as usize + first, chunk, emitter_rays)
                 }
-                _ if !direct && self.gpu_rays.is_some() && self.hemisphere_rays.any() => {
+                _ if !direct && self.gpu_rays.is_some() => {
                     self.reflected_on_gpu(chunk, stream + first as u64)
                 }
                 _ => None,
@@ -215,12 +215,10 @@ impl Gather<'_> {
                 out.extend(values);
             } else {
                 out.par_extend(chunk.par_iter().enumerate().map(|(i, &(p, n, patch))| {
-                    if let Some(cache) = self.reflected_cache.as_ref().filter(|_| !direct) {
-                        let cached = cache.lookup(p, n, patch);
-                        self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
-                        if let Some(reflected) = cached {
-                            return reflected;
-                        }
+                    // Only the reflected light is cached (and counted).
+                    let cached = (!direct).then(|| self.cached_reflected((p, n, patch)));
+                    if let Some(reflected) = cached.flatten() {
+                        return reflected;
                     }
                     let mut rng = Pcg32::new(RANDOM_SEED, stream + (first + i) as u64);
                     let at = Receiver {
@@ -240,6 +238,14 @@ impl Gather<'_> {
         Some(out)
     }
 
+    /// The reflected light at `frame` from the reflected cache, where a
+    /// record is valid there (counted as reused, or as gathered).
+    fn cached_reflected(&self, (p, n, patch): Frame) -> Option<Vec3> {
+        let cached = self.reflected_cache.as_ref()?.lookup(p, n, patch);
+        self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
+        cached
+    }
+
     /// The reflected light at `chunk` (its rays following random streams
     /// from `stream` on) in a scene whose reflected light the hemisphere
     /// rays gather alone: from the reflected cache where a record is
@@ -248,12 +254,7 @@ impl Gather<'_> {
     fn reflected_on_gpu(&self, chunk: &[Frame], stream: u64) -> Option<Vec<Vec3>> {
         let cached: Vec<Option<Vec3>> = chunk
             .par_iter()
-            .map(|&(p, n, patch)| {
-                let cache = self.reflected_cache.as_ref()?;
-                let cached = cache.lookup(p, n, patch);
-                self.reused[cached.is_none() as usize].fetch_add(1, Ordering::Relaxed);
-                cached
-            })
+            .map(|&frame| self.cached_reflected(frame))
             .collect();
         let todo: Vec<usize> = (0..chunk.len()).filter(|&i| cached[i].is_none()).collect();
         let frames: Vec<Frame> = todo.iter().map(|&i| chunk[i]).collect();
