@@ -286,6 +286,14 @@ pub fn span_since(
     }
 }
 
+/// Runs `f`, recorded as a step named `name` in `trace` when there is one.
+pub fn step<T>(trace: Option<&Trace>, name: &str, f: impl FnOnce() -> T) -> T {
+    let start = Instant::now();
+    let out = f();
+    span_since(trace, cat::STEP, name, start, || json!({}));
+    out
+}
+
 /// One parallel loop's spans, one per rayon worker that took part
 /// ([`par_spans`]); they are recorded when this is dropped.
 pub struct ParSpans<'a> {

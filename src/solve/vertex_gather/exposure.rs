@@ -9,7 +9,7 @@ use rayon::prelude::*;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::{Pcg32, Sampler};
 use crate::geom::tangent_frame;
-use crate::mesh::Mesh;
+use crate::mesh::{Element, Mesh};
 use crate::scene::Scene;
 
 /// The part of an element that is not enclosed (the floor under a box is).
@@ -30,22 +30,53 @@ pub(super) struct ExposedPart {
 pub(super) const EXPOSURE_GRID: usize = 4;
 const EXPOSURE_RAYS: usize = 8;
 
+/// The fewest points a side a small element takes: the grid is the
+/// largest element's, and a smaller one takes points at that spacing,
+/// in proportion to its longest edge, but never fewer than this (its
+/// exposed share needs a few). Before, every element took the full grid:
+/// on `surfaces-200k` (201,552 elements, nearly all tiny triangles of
+/// smooth surfaces) the test and the direct means over its points took
+/// 5.1 s of an 8.6 s gather. Measured at 256x256 against the path-traced
+/// references, whole commands on 2 cores: `surfaces-200k` 13.1 -> 8.0 s
+/// (peak 895 -> 613 MB; the image moved by 7e-6 rel. RMSE),
+/// `surfaces-8k` 2.58 -> 2.35 s at 1.255% lit error either way,
+/// `rfield` 5.1 -> 4.4 s at 1.841% -> 1.88% (its letters' faces took the
+/// floor's spacing), the Cornell box 1.197% -> 1.189% in the same time.
+const MIN_GRID: usize = 2;
+
 /// Every element's exposed part, from a grid of points on it: a point is
 /// enclosed when every one of a few cosine-distributed rays from it meets
 /// the back of a surface (the inside of a box standing on it); one ray that
-/// escapes or meets a front makes it exposed. `grid` points a side
-/// ([`EXPOSURE_GRID`], or more where hemisphere rays read the direct light
-/// at the points, [`LANDING_EXPOSURE_GRID`](super::hemisphere_rays::LANDING_EXPOSURE_GRID)).
+/// escapes or meets a front makes it exposed. `grid` points a side of the
+/// largest element ([`EXPOSURE_GRID`], or more where hemisphere rays read
+/// the direct light at the points, [`LANDING_EXPOSURE_GRID`](super::hemisphere_rays::LANDING_EXPOSURE_GRID)),
+/// fewer on smaller ones ([`MIN_GRID`]).
 pub(super) fn exposed_parts(
     scene: &Scene,
     mesh: &Mesh,
     occluders: &Occluders,
     grid: usize,
 ) -> Vec<ExposedPart> {
+    let longest = |el: &Element| {
+        let c = el.corners();
+        (0..c.len())
+            .map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                mesh.vertices[a as usize].distance(mesh.vertices[b as usize])
+            })
+            .fold(0.0f32, f32::max)
+    };
+    let largest = mesh.elements.iter().map(longest).fold(0.0f32, f32::max);
     mesh.elements
         .par_iter()
         .enumerate()
         .map(|(k, el)| {
+            // The points' spacing is the largest element's everywhere.
+            let grid = match largest > 0.0 {
+                true => ((grid as f32 * longest(el) / largest).ceil() as usize)
+                    .clamp(MIN_GRID.min(grid), grid),
+                false => grid,
+            };
             let corners: Vec<Vec3> = el
                 .corners()
                 .iter()

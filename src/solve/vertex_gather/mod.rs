@@ -53,7 +53,7 @@ use crate::gpu::rays::FirstHitPass;
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
-use crate::trace::Trace;
+use crate::trace::{step, Trace};
 
 /// How the final gather trades rays and nodes for accuracy.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -336,7 +336,8 @@ impl<'a> FinalGather<'a> {
         meter: &mut Meter,
     ) -> Option<Self> {
         assert_eq!(radiosity.len(), solved.elements.len());
-        let occluders = Occluders::new(scene);
+        let trace = meter.trace;
+        let occluders = step(trace, "ray-tracing hierarchy", || Occluders::new(scene));
         // A solved element partly under a box has its light spread over its
         // whole area, the covered part included: the part that shows is
         // brighter than that mean by 1 / (exposed share).
@@ -348,7 +349,9 @@ impl<'a> FinalGather<'a> {
             true => LANDING_EXPOSURE_GRID,
             false => EXPOSURE_GRID,
         };
-        let exposed = exposed_parts(scene, solved, &occluders, grid);
+        let exposed = step(trace, "exposed parts", || {
+            exposed_parts(scene, solved, &occluders, grid)
+        });
         let undiluted: Vec<[f32; 3]> = radiosity
             .iter()
             .zip(&exposed)
@@ -427,7 +430,10 @@ impl<'a> FinalGather<'a> {
         // passes the sources keep the light they were given.
         let direct_means = (settings.lit_samples && settings.source_passes > 0).then(|| {
             gather.emitters = Emitters::new(&gather, &roots);
-            let means = Arc::new(gather.direct_means(solved, &exposed));
+            let means = step(trace, "direct means", || {
+                gather.direct_means(solved, &exposed)
+            });
+            let means = Arc::new(means);
             let lit = Some((&*means, &gather.element_rho[..]));
             gather.sources = sources(scene, solved, tree, &undiluted, &exposed, lit);
             gather.direct_map = Some(Arc::clone(&means));
