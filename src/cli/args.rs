@@ -331,9 +331,10 @@ pub(crate) struct RenderArgs {
     /// of a few large patches. 0: visit every patch (for comparison).
     #[arg(long, default_value_t = VertexGather::default().hemisphere_rays, value_name = "N")]
     pub(crate) hemisphere_rays: usize,
-    /// Where the hemisphere rays of the pixels' reflected points are
-    /// traced: on the GPU (a compute pass over a BVH in storage buffers)
-    /// or the CPU. auto: the GPU unless the device is the CPU itself
+    /// Where the hemisphere rays (--hemisphere-rays) are traced, at the
+    /// element centres, the display vertices and the pixels: on the GPU (a
+    /// compute pass over a BVH in storage buffers) or the CPU. The same
+    /// rays either way. auto: the GPU unless the device is the CPU itself
     /// (lavapipe, where the pass is 2.6x slower than the CPU's rays on
     /// rfield, `cargo bench --bench gpu_rays`).
     #[arg(long, value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]

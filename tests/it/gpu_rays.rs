@@ -579,19 +579,33 @@ fn the_final_gather_agrees_with_its_direct_light_on_the_gpu() {
     common::assert_validation_clean(&device);
 }
 
+/// Relative RMS difference of `a` from `b` (red channel), and whether `b`
+/// holds any light at all.
+fn rel_rms(a: &[Vec3], b: &[Vec3]) -> (f64, bool) {
+    let (mut d2, mut r2) = (0.0f64, 0.0f64);
+    for (g, c) in a.iter().zip(b) {
+        d2 += ((g.x - c.x) as f64).powi(2);
+        r2 += (c.x as f64).powi(2);
+    }
+    ((d2 / r2.max(f64::MIN_POSITIVE)).sqrt(), r2 > 0.0)
+}
+
 #[test]
 fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     // The single letter R on its floor: its 136 faces are small patches,
     // so hemisphere rays gather the reflected light. The same rays (each
-    // point's random stream) traced on the GPU and on the CPU: the same
-    // values but where a ray grazes an edge.
+    // point's random stream) traced on the GPU and on the CPU, at the
+    // element centres' pass, the pixels' reflected points and the display
+    // vertices: the same values but where a ray grazes an edge.
     use vkrad::solve::vertex_gather::{DirectLight, FinalGather, Meter, PointLight, VertexGather};
     let device = common::device();
     let setup = meshed("r", |patch| 0.5 + (patch % 7) as f32 * 0.1);
     let (scene, mesh) = (&setup.0, &setup.1);
     let gather = |hemisphere_device| {
+        // No reflected cache: every point traces its own rays.
         let settings = VertexGather {
             hemisphere_device,
+            reuse: 0.0,
             ..VertexGather::default()
         };
         final_gather(&setup, settings, &device)
@@ -599,6 +613,10 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     let (gpu, cpu) = (gather(DirectLight::Gpu), gather(DirectLight::Cpu));
     assert!(gpu.hemisphere_rays_on_gpu() && !cpu.hemisphere_rays_on_gpu());
     assert_eq!(gpu.gpu_warning(), None);
+    // The Jacobi pass traced its centres' rays there.
+    let by_the_pass = gpu.hemisphere_rays_traced_on_gpu();
+    assert!(by_the_pass > 0, "the centres' rays were traced on the CPU");
+    assert_eq!(cpu.hemisphere_rays_traced_on_gpu(), 0);
     let frames: Vec<(Vec3, Vec3, u32)> = mesh
         .elements
         .iter()
@@ -609,26 +627,36 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
         g.light_at_points(&frames, PointLight::Reflected, 0, &mut Meter::unwatched())
             .unwrap()
     };
-    let (on_gpu, on_cpu) = (reflected(&gpu), reflected(&cpu));
-    assert!(
-        gpu.hemisphere_rays_on_gpu(),
-        "the GPU failed and the CPU took over"
-    );
-    let (mut d2, mut r2) = (0.0f64, 0.0f64);
-    for (g, c) in on_gpu.iter().zip(&on_cpu) {
-        d2 += ((g.x - c.x) as f64).powi(2);
-        r2 += (c.x as f64).powi(2);
+    let all = |g: &FinalGather| -> Vec<Vec3> {
+        g.at_points(&frames).into_iter().map(Vec3::from).collect()
+    };
+    for (what, on_gpu, on_cpu) in [
+        (
+            "the pixels' reflected light",
+            reflected(&gpu),
+            reflected(&cpu),
+        ),
+        ("the light at display points", all(&gpu), all(&cpu)),
+    ] {
+        assert!(
+            gpu.hemisphere_rays_on_gpu(),
+            "the GPU failed and the CPU took over"
+        );
+        let (rms, lit) = rel_rms(&on_gpu, &on_cpu);
+        eprintln!(
+            "{what} by hemisphere rays on the GPU against the CPU at {} points: rel. RMS {:.5}%",
+            frames.len(),
+            100.0 * rms
+        );
+        assert!(lit, "no light at all");
+        // The same rays: on lavapipe exactly the same values; elsewhere a
+        // graze may land on the other side of an edge.
+        assert!(rms < 1e-3, "{what}: rel. RMS {rms}");
     }
-    let rms = (d2 / r2).sqrt();
-    eprintln!(
-        "reflected light by hemisphere rays on the GPU against the CPU at {} points: rel. RMS {:.5}%",
-        frames.len(),
-        100.0 * rms
-    );
-    assert!(r2 > 0.0, "no reflected light at all");
-    // The same rays: on lavapipe exactly the same values; elsewhere a
-    // graze may land on the other side of an edge.
-    assert!(rms < 1e-3, "rel. RMS {rms}");
+    // Both kinds of point traced theirs on the GPU: 256 rays each.
+    let rays = VertexGather::default().hemisphere_rays as u64;
+    let traced = gpu.hemisphere_rays_traced_on_gpu() - by_the_pass;
+    assert_eq!(traced, 2 * rays * frames.len() as u64);
     common::assert_validation_clean(&device);
 }
 

@@ -54,6 +54,8 @@ pub struct FirstHitPass {
     chunk: usize,
     /// GPU time (or CPU-timed submissions) across all calls.
     pub times: StageTimes,
+    /// Rays traced across all calls.
+    pub traced: u64,
 }
 
 impl FirstHitPass {
@@ -77,6 +79,7 @@ impl FirstHitPass {
             job,
             chunk,
             times: StageTimes::default(),
+            traced: 0,
         })
     }
 
@@ -97,6 +100,7 @@ impl FirstHitPass {
                 || serde_json::json!({ "rays": n }),
             )?;
             out.extend(self.hits.read::<Hit>(chunk.len())?);
+            self.traced += chunk.len() as u64;
         }
         Ok(out)
     }

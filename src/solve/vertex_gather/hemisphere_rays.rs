@@ -160,6 +160,10 @@ impl HemisphereRays {
     }
 }
 
+/// A point's hemisphere rays' first hits, `(t, patch)` each (`None`:
+/// nothing), in the order its directions were drawn.
+pub(super) type FirstHits = Vec<Option<(f32, u32)>>;
+
 /// What the rays gathered at a point.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct RayGathered {
@@ -195,13 +199,17 @@ impl Gather<'_> {
 
     /// The light the patches the rays gather reflect onto `at`: the mean,
     /// over stratified cosine-distributed rays, of the radiosity where each
-    /// lands on such a patch's front. With `distance`, each landing's
-    /// distance is added to it; with `links`, each source met is recorded
-    /// (its rest with weight 1/rays, its direct part as a constant).
+    /// lands on such a patch's front. `ahead`: the rays' first hits, traced
+    /// already on the GPU ([`Self::hits_on_gpu`]; the directions are drawn
+    /// again from `rng`, alike); without, the CPU traces them. With
+    /// `distance`, each landing's distance is added to it; with `links`,
+    /// each source met is recorded (its rest with weight 1/rays, its direct
+    /// part as a constant).
     pub(super) fn by_hemisphere_rays(
         &self,
         at: &Receiver,
         rng: &mut Pcg32,
+        ahead: Option<&[Option<(f32, u32)>]>,
         distance: Option<&mut HarmonicDistance>,
         links: Option<&mut Links>,
     ) -> RayGathered {
@@ -212,10 +220,18 @@ impl Gather<'_> {
             };
         }
         let (origin, directions) = self.hemisphere_directions(at, rng);
-        let hits = directions
-            .iter()
-            .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
-        self.landings(origin, &directions, hits, distance, links)
+        match ahead.filter(|hits| hits.len() == directions.len()) {
+            Some(hits) => {
+                let hits = hits.iter().copied();
+                self.landings(origin, &directions, hits, distance, links)
+            }
+            None => {
+                let hits = directions
+                    .iter()
+                    .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
+                self.landings(origin, &directions, hits, distance, links)
+            }
+        }
     }
 
     /// What the rays from `origin` along `directions` read where they
@@ -274,18 +290,14 @@ impl Gather<'_> {
         out
     }
 
-    /// The reflected light at `frames` (frame `i`'s rays following random
-    /// stream `streams[i]`, as [`Self::light_at`] draws them) with its
-    /// hemisphere rays traced on the GPU; `None` where the GPU has none
-    /// or fails (the CPU then traces them).
-    pub(super) fn reflected_by_gpu_rays(
-        &self,
-        frames: &[Frame],
-        streams: &[u64],
-    ) -> Option<Vec<Vec3>> {
+    /// The first hits of the hemisphere rays from `frames`, traced on the
+    /// GPU: frame `i`'s directions are the first drawn from random stream
+    /// `streams[i]`, as [`Self::by_hemisphere_rays`] draws them when they
+    /// come first from its stream (the gather at a point sends its rays
+    /// before it draws anything else). `None` where the GPU has no pass or
+    /// it fails (it is then dropped, and the CPU traces them).
+    pub(super) fn hits_on_gpu(&self, frames: &[Frame], streams: &[u64]) -> Option<Vec<FirstHits>> {
         let gpu = self.gpu_rays.as_ref()?;
-        let mut guard = gpu.lock().ok()?;
-        let pass = guard.as_mut()?;
         let cast: Vec<(Vec3, Vec<Vec3>)> = frames
             .par_iter()
             .zip(streams)
@@ -312,20 +324,73 @@ impl Gather<'_> {
                 })
             })
             .collect();
-        let hits = match pass.first_hits(&rays) {
+        let mut guard = gpu.lock().ok()?;
+        let hits = match guard.as_mut()?.first_hits(&rays) {
             Ok(hits) => hits,
             Err(_) => {
                 *guard = None;
                 return None;
             }
         };
-        let per_point = self.hemisphere_rays.rays.max(1);
+        let mut hits = hits.iter().map(Hit::met);
         Some(
-            cast.par_iter()
-                .zip(hits.par_chunks(per_point))
-                .map(|((origin, directions), hits)| {
-                    let met = hits.iter().map(Hit::met);
-                    self.landings(*origin, directions, met, None, None)
+            cast.iter()
+                .map(|(_, directions)| hits.by_ref().take(directions.len()).collect())
+                .collect(),
+        )
+    }
+
+    /// The hemisphere rays' first hits at the points of `chunk` (whose
+    /// first is number `first` in its list, which seeds its rays) that
+    /// `traces` says will trace them, traced on the GPU when it has the
+    /// pass; `None` where it has not (or fails: the CPU then traces them).
+    pub(super) fn chunk_hits_on_gpu(
+        &self,
+        chunk: &[Frame],
+        first: usize,
+        traces: impl Fn(usize, &Frame) -> bool + Sync,
+    ) -> Option<Vec<Option<FirstHits>>> {
+        if self.gpu_rays.is_none() || !self.hemisphere_rays.any() {
+            return None;
+        }
+        let todo: Vec<usize> = (0..chunk.len())
+            .into_par_iter()
+            .filter(|&i| traces(i, &chunk[i]))
+            .collect();
+        let frames: Vec<Frame> = todo.iter().map(|&i| chunk[i]).collect();
+        let streams: Vec<u64> = todo.iter().map(|&i| (first + i) as u64).collect();
+        let traced = self.hits_on_gpu(&frames, &streams)?;
+        let mut hits = vec![None; chunk.len()];
+        for (i, h) in todo.into_iter().zip(traced) {
+            hits[i] = Some(h);
+        }
+        Some(hits)
+    }
+
+    /// The reflected light at `frames` (frame `i`'s rays following random
+    /// stream `streams[i]`, as [`Self::light_at`] draws them) with its
+    /// hemisphere rays traced on the GPU; `None` where the GPU has none
+    /// or fails (the CPU then traces them).
+    pub(super) fn reflected_by_gpu_rays(
+        &self,
+        frames: &[Frame],
+        streams: &[u64],
+    ) -> Option<Vec<Vec3>> {
+        let hits = self.hits_on_gpu(frames, streams)?;
+        Some(
+            frames
+                .par_iter()
+                .zip(streams)
+                .zip(&hits)
+                .map(|((&(p, n, patch), &stream), hits)| {
+                    let at = Receiver {
+                        p,
+                        n,
+                        patch,
+                        emitter_rays: 0,
+                    };
+                    let mut rng = Pcg32::new(SEED, stream);
+                    self.by_hemisphere_rays(&at, &mut rng, Some(hits), None, None)
                         .reflected
                 })
                 .collect(),

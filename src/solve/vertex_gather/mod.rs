@@ -98,8 +98,10 @@ pub struct VertexGather {
     /// in a scene of small patches ([`hemisphere_rays`]); 0: every patch
     /// is visited as a source, for comparison.
     pub hemisphere_rays: usize,
-    /// Where the hemisphere rays of the pixels' reflected points are
-    /// traced (the element centres' and display vertices' on the CPU).
+    /// Where the hemisphere rays are traced: the element centres', the
+    /// display vertices' and the pixels' reflected points'. Each point's
+    /// rays come from its own random stream, so the CPU and the GPU trace
+    /// the same ones.
     pub hemisphere_device: DirectLight,
 }
 
@@ -578,12 +580,19 @@ impl<'a> FinalGather<'a> {
         self.gather.hemisphere_rays.any()
     }
 
-    /// Whether the pixels' reflected light is gathered by hemisphere rays
-    /// traced on the GPU (and the GPU has not failed at it).
+    /// Whether the hemisphere rays are traced on the GPU (and the GPU has
+    /// not failed at them).
     pub fn hemisphere_rays_on_gpu(&self) -> bool {
         // The pass is made only where the rays gather.
         let working = |pass: &Mutex<Option<FirstHitPass>>| pass.lock().is_ok_and(|p| p.is_some());
         self.gather.gpu_rays.as_ref().is_some_and(working)
+    }
+
+    /// The hemisphere rays the GPU has traced so far.
+    pub fn hemisphere_rays_traced_on_gpu(&self) -> u64 {
+        let traced =
+            |pass: &Mutex<Option<FirstHitPass>>| pass.lock().ok()?.as_ref().map(|p| p.traced);
+        self.gather.gpu_rays.as_ref().and_then(traced).unwrap_or(0)
     }
 
     /// How many points so far took their reflected light from the

@@ -65,10 +65,17 @@ pub(super) struct Gather<'a> {
     pub(super) direct_scale: Vec3,
     /// The patches whose light hemisphere rays gather.
     pub(super) hemisphere_rays: HemisphereRays,
-    /// The GPU pass that traces the hemisphere rays of the pixels'
-    /// reflected points, when asked for (`None` inside after a failure:
-    /// the CPU then traces them).
+    /// The GPU pass that traces the hemisphere rays, when asked for
+    /// (`None` inside after a failure: the CPU then traces them).
     pub(super) gpu_rays: Option<Mutex<Option<FirstHitPass>>>,
+}
+
+/// What is known of a point's light before it gathers: its direct light
+/// and its hemisphere rays' first hits, where the GPU gathered them.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Ahead<'h> {
+    direct: Option<Vec3>,
+    hits: Option<&'h [Option<(f32, u32)>]>,
 }
 
 /// What a gather does with the points' links ([`Links`]).
@@ -227,7 +234,7 @@ impl Gather<'_> {
                         patch,
                         emitter_rays,
                     };
-                    let g = self.at_point(&at, true, wanted, &mut rng, None);
+                    let g = self.at_point(&at, true, wanted, &mut rng, None, None);
                     [g.reflected, g.direct][usize::from(direct)]
                 }));
             }
@@ -311,6 +318,16 @@ impl Gather<'_> {
                     .unwrap_or_default(),
             };
             let recording = matches!(linking, Linking::Record(_)) && recorded_bytes < LINKS_BUDGET;
+            // The hemisphere rays of the points that trace them, on the GPU.
+            let traces = |i: usize, frame: &Frame| {
+                replayed(i).is_none()
+                    && (rho_of(i, frame).max_element() > 0.0 || record.is_some())
+                    && self
+                        .reflected_cache
+                        .as_ref()
+                        .is_none_or(|cache| cache.lookup(frame.0, frame.1, frame.2).is_none())
+            };
+            let hits = self.chunk_hits_on_gpu(chunk, first, traces);
             let spans = trace::par_spans(meter.trace, name, || serde_json::json!({ "chunk": c }));
             let gathered: Vec<(Vec3, Gathered, Option<Links>)> = chunk
                 .par_iter()
@@ -323,8 +340,12 @@ impl Gather<'_> {
                         return (b, g, None);
                     }
                     let mut links = recording.then(Links::default);
+                    let ahead = Ahead {
+                        direct,
+                        hits: hits.as_ref().and_then(|h| h[i].as_deref()),
+                    };
                     let (b, g) =
-                        self.at_frame(first + i, frame, rho, record, direct, links.as_mut());
+                        self.at_frame(first + i, frame, rho, record, ahead, links.as_mut());
                     if let Some(links) = &mut links {
                         links.shrink();
                     }
@@ -372,18 +393,20 @@ impl Gather<'_> {
     /// Radiosity at frame number `k` (which seeds its rays), of
     /// reflectance `rho`, and the light gathered there. Its reflected
     /// light comes from the cache where a record is valid, its direct
-    /// light is `direct` when the GPU gathered it. `record`: measure how
-    /// far its reflected light holds, and (`Some(false)`) gather only that.
-    /// `links`: record there the sources it takes.
+    /// light and its hemisphere rays' hits are `ahead`'s where known.
+    /// `record`: measure how far its reflected light holds, and
+    /// (`Some(false)`) gather only that. `links`: record there the sources
+    /// it takes.
     fn at_frame(
         &self,
         k: usize,
         &(p, n, patch): &Frame,
         rho: Vec3,
         record: Option<bool>,
-        direct: Option<Vec3>,
+        ahead: Ahead,
         links: Option<&mut Links>,
     ) -> (Vec3, Gathered) {
+        let Ahead { direct, hits } = ahead;
         let Some(surface) = self.scene.patches.get(patch as usize) else {
             return (Vec3::ZERO, Gathered::default());
         };
@@ -414,7 +437,7 @@ impl Gather<'_> {
                 },
                 (Some(reflected), None) => Gathered {
                     reflected,
-                    ..self.at_point(&at, true, Sources::EMITTING, &mut rng, links)
+                    ..self.at_point(&at, true, Sources::EMITTING, &mut rng, None, links)
                 },
                 (None, direct) if record.is_some() => {
                     let wanted = Sources {
@@ -422,7 +445,7 @@ impl Gather<'_> {
                         reflected: true,
                         record: true,
                     };
-                    let mut gathered = self.at_point(&at, true, wanted, &mut rng, links);
+                    let mut gathered = self.at_point(&at, true, wanted, &mut rng, hits, links);
                     if let Some(direct) = direct {
                         gathered.direct = direct;
                     }
@@ -430,9 +453,9 @@ impl Gather<'_> {
                 }
                 (None, Some(direct)) => Gathered {
                     direct,
-                    ..self.at_point(&at, true, Sources::REFLECTING, &mut rng, links)
+                    ..self.at_point(&at, true, Sources::REFLECTING, &mut rng, hits, links)
                 },
-                (None, None) => self.at_point(&at, true, Sources::ALL, &mut rng, links),
+                (None, None) => self.at_point(&at, true, Sources::ALL, &mut rng, hits, links),
             };
         }
         (material.emission * PI + rho * gathered.total(), gathered)
@@ -441,17 +464,30 @@ impl Gather<'_> {
     /// Sum over all sources of B_s F(at -> s) V(at, s). `look_closer`:
     /// a leaf that fills much of the view takes the radiosity at its
     /// point beside the receiver instead of its mean ([`Self::beside`]).
-    /// `links`: record there each source taken and its weight.
+    /// `links`: record there each source taken and its weight. `ahead`:
+    /// its hemisphere rays' first hits, traced on the GPU.
     fn at_point(
         &self,
         at: &Receiver,
         look_closer: bool,
         wanted: Sources,
         rng: &mut Pcg32,
+        ahead: Option<&[Option<(f32, u32)>]>,
         mut links: Option<&mut Links>,
     ) -> Gathered {
         let settings = &self.settings;
         let mut gathered = Gathered::default();
+        // The hemisphere rays first: their directions are then the first
+        // drawn from the point's stream, whoever traces them.
+        if wanted.reflected && self.hemisphere_rays.any() {
+            let distance = wanted.record.then_some(&mut gathered.distance);
+            let links = links.as_deref_mut();
+            let by_rays = self.by_hemisphere_rays(at, rng, ahead, distance, links);
+            gathered.reflected += by_rays.reflected;
+            if wanted.record {
+                gathered.clearance = gathered.clearance.min(by_rays.clearance);
+            }
+        }
         // Clusters of patches first: far, even ones whole, the rest down
         // to their patches' root nodes.
         let mut stack: Vec<u32> = Vec::new();
@@ -593,14 +629,6 @@ impl Gather<'_> {
                 }
             }
         }
-        if wanted.reflected && self.hemisphere_rays.any() {
-            let distance = wanted.record.then_some(&mut gathered.distance);
-            let by_rays = self.by_hemisphere_rays(at, rng, distance, links);
-            gathered.reflected += by_rays.reflected;
-            if wanted.record {
-                gathered.clearance = gathered.clearance.min(by_rays.clearance);
-            }
-        }
         gathered
     }
 
@@ -661,7 +689,7 @@ impl Gather<'_> {
             patch: node.patch,
             emitter_rays: self.settings.emitter_rays,
         };
-        let gathered = self.at_point(&there, false, Sources::ALL, rng, links);
+        let gathered = self.at_point(&there, false, Sources::ALL, rng, None, links);
         let emission = material.emission * PI;
         Some((emission + rho * gathered.total(), emission, rho))
     }
