@@ -122,10 +122,11 @@ impl Occluders {
         }
         let tmin = self.eps / len;
         let tmax = 1.0 - tmin;
-        bvh.ray_traverse_miss(traversal_ray(a, d, tmin, tmax), |_, id| {
+        bvh.ray_traverse_miss(traversal_ray(a, d, tmin, tmax).0, |_, id| {
             let tri = &self.tris[id];
             if tri.patch != skip[0] && tri.patch != skip[1] && hits(tri, a, d, tmin, tmax) {
-                tmin // any value below tmax ends the traversal: blocked
+                // Any `t` inside the traversal's range ends it: blocked.
+                NODE_EPSILON
             } else {
                 f32::INFINITY
             }
@@ -153,17 +154,16 @@ impl Occluders {
         if !d.is_finite() || d.length_squared() == 0.0 {
             return None;
         }
-        let ray = traversal_ray(a, d, tmin, f32::INFINITY);
+        let (ray, shift) = traversal_ray(a, d, tmin, f32::INFINITY);
         let mut hit = RayHit::none();
         let found = bvh.ray_traverse(ray, &mut hit, |ray, id| {
             let tri = &self.tris[id];
             if tri.patch == skip {
                 return f32::INFINITY;
             }
-            hit_distance(tri, a, d, tmin, ray.tmax - TRAVERSAL_BACKUP)
-                .map_or(f32::INFINITY, |t| t + TRAVERSAL_BACKUP)
+            hit_distance(tri, a, d, tmin, ray.tmax - shift).map_or(f32::INFINITY, |t| t + shift)
         });
-        found.then_some((hit.t - TRAVERSAL_BACKUP, hit.primitive_id as usize))
+        found.then_some((hit.t - shift, hit.primitive_id as usize))
     }
 
     /// The first surface the ray `a + t d`, `t > tmin`, meets (patch
@@ -182,10 +182,10 @@ impl Occluders {
         }
         let slack = 0.01 * self.eps / d.length();
         let (t0, t1) = ((t - slack).max(0.0), t + slack);
-        let facing = !bvh.ray_traverse_miss(traversal_ray(a, d, t0, t1), |_, id| {
+        let facing = !bvh.ray_traverse_miss(traversal_ray(a, d, t0, t1).0, |_, id| {
             let tri = &self.tris[id];
             if tri.patch != skip && front(tri) && hits(tri, a, d, t0, t1) {
-                t0
+                NODE_EPSILON
             } else {
                 f32::INFINITY
             }
@@ -194,26 +194,33 @@ impl Occluders {
     }
 }
 
-/// How far back along a ray (in its own `t`) the BVH's traversal starts.
-/// obvhs's wide BVH culls each box the ray leaves before `t = 1e-4` (an
+/// obvhs's wide BVH culls each box a ray leaves before `t = 1e-4` (an
 /// absolute epsilon in its node test, whatever the scene's scale), so
 /// every hit that near the origin was lost: on CornellBox-Sphere (2.6
 /// units across) a ray from the foot of a wall toward the floor went
 /// through it, 197 of 6,000 rays from the patches' edges escaped, and the
-/// room's corners read dark in the display mesh. The hit tests keep the
-/// true origin; only the boxes are met from further back.
-const TRAVERSAL_BACKUP: f32 = 2e-4;
+/// room's corners read dark in the display mesh. The traversal therefore
+/// follows the ray from where that cut falls before `tmin`, by as much
+/// again for the rounding of the moved origin (at 1.01e-4 a ray in a
+/// room 16 units across slipped out by a seam); the hit tests keep the
+/// true origin.
+const NODE_EPSILON: f32 = 2e-4;
 
-/// The ray the traversal follows for `a + t d`, `tmin < t < tmax`: from
-/// [`TRAVERSAL_BACKUP`] further back, its `t` shifted by as much.
-fn traversal_ray(a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Ray {
-    let back = a - TRAVERSAL_BACKUP * d;
-    Ray::new(
-        back.to_array().into(),
+/// The ray the traversal follows for `a + t d`, `tmin < t < tmax`, and
+/// how far its `t` is shifted from the true one: it starts where the
+/// boxes obvhs culls are those left before `tmin` less a margin
+/// ([`NODE_EPSILON`]). A box left just after `tmin` is visited (a floor a
+/// wall's foot nearly touches).
+fn traversal_ray(a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> (Ray, f32) {
+    let shift = NODE_EPSILON - tmin;
+    let from = a - shift * d;
+    let ray = Ray::new(
+        from.to_array().into(),
         d.to_array().into(),
-        tmin + TRAVERSAL_BACKUP,
-        tmax + TRAVERSAL_BACKUP,
-    )
+        NODE_EPSILON,
+        tmax + shift,
+    );
+    (ray, shift)
 }
 
 /// Moller-Trumbore, edges inclusive, `t` strictly inside (tmin, tmax).
