@@ -22,9 +22,8 @@ use std::f32::consts::PI;
 use std::time::Instant;
 
 use glam::Vec3;
-use rayon::prelude::*;
 
-use super::{nested_pixel_samples, pixel_samples};
+use super::pixel_samples;
 use crate::formfactor::raytrace::Occluders;
 use crate::output::HdrImage;
 use crate::scene::{Camera, Scene};
@@ -32,7 +31,11 @@ use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
 use crate::trace::{cat, span_since};
 use serde_json::json;
 
+mod coverage;
 mod shadow_edges;
+
+pub use coverage::FIRST_COVERAGE;
+use coverage::{cast_pixels, front_hit};
 
 /// Where the final gather shades the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -95,6 +98,9 @@ pub struct PixelPoints {
     across_group: Vec<u32>,
     /// Per pixel, whether a silhouette crosses it.
     silhouette: Vec<bool>,
+    /// Per pixel, the camera rays it cast ([`FIRST_COVERAGE`] where no
+    /// silhouette is near).
+    cast: Vec<u32>,
     /// Where the reflected light is gathered: one point per (block,
     /// smooth surface).
     reflected_frames: Vec<(Vec3, Vec3, u32)>,
@@ -212,49 +218,11 @@ pub fn edge_samples(width: u32, height: u32) -> u32 {
 /// Where a gather happens: point, front normal, patch.
 type Frame = (Vec3, Vec3, u32);
 
-/// The front patch the camera ray through image point `(x, y)` meets
-/// first, and where; `None` for nothing or a patch's back.
-fn front_hit(
-    scene: &Scene,
-    occluders: &Occluders,
-    rays: &CameraRays,
-    eye: Vec3,
-    x: f32,
-    y: f32,
-) -> Option<(u32, Vec3)> {
-    let d = rays.direction(x, y);
-    let (t, patch) = occluders.first_hit(eye, d)?;
-    (scene.patches[patch as usize].normal.dot(d) < 0.0).then(|| (patch, eye + t * d))
-}
-
 /// A patch's samples in a pixel or block: (patch, sum of hit points,
 /// samples).
 type Group = (u32, Vec3, u32);
 /// A pixel's patches.
 type Groups = Vec<Group>;
-
-/// What a pixel's camera rays met: its patches, where its direct light is
-/// sampled (patch, point), and whether a silhouette crosses it.
-struct PixelHits {
-    groups: Groups,
-    direct: Vec<(u32, Vec3)>,
-    silhouette: bool,
-}
-
-/// The samples of each patch `hits` met, in the order first met.
-fn group_hits(hits: &[Option<(u32, Vec3)>]) -> Groups {
-    let mut groups: Groups = Vec::new();
-    for &(patch, at) in hits.iter().flatten() {
-        match groups.iter_mut().find(|g| g.0 == patch) {
-            Some(g) => {
-                g.1 += at;
-                g.2 += 1;
-            }
-            None => groups.push((patch, at, 1)),
-        }
-    }
-    groups
-}
 
 impl PixelPoints {
     /// Casts every pixel's samples through `camera` into `scene`, whose
@@ -268,57 +236,7 @@ impl PixelPoints {
         camera: &Camera,
         (w, h): (u32, u32),
     ) -> Self {
-        let rays = CameraRays::new(camera, w, h);
-        let n = coverage_samples(w, h);
-        let d = direct_samples(w, h).min(n);
-        let scale = if silhouettes_refined(w, h) {
-            SILHOUETTE_COVERAGE
-        } else {
-            1
-        };
-        let coverage = nested_pixel_samples(n * scale, n * scale);
-        let direct = pixel_samples(d);
-        // A silhouette pixel's direct samples are its first coverage
-        // samples, a net of their own: no rays of their own.
-        let across = (d * SILHOUETTE_DIRECT).min(n) as usize;
-        let hit = |x: f32, y: f32| front_hit(scene, occluders, &rays, camera.eye, x, y);
-        let per_pixel: Vec<PixelHits> = (0..w * h)
-            .into_par_iter()
-            .map(|p| {
-                let (x, y) = ((p % w) as f32, (p / w) as f32);
-                let cast = |offsets: &[(f32, f32)]| -> Vec<Option<(u32, Vec3)>> {
-                    offsets
-                        .iter()
-                        .map(|&(sx, sy)| hit(x + sx, y + sy))
-                        .collect()
-                };
-                let mut hits = cast(&coverage[..n as usize]);
-                // What a hit shows: a seam between two patches of one
-                // smooth surface and material is not a silhouette.
-                let shows = |h: &Option<(u32, Vec3)>| {
-                    h.map(|(patch, _)| {
-                        (
-                            surface[patch as usize],
-                            scene.patches[patch as usize].material,
-                        )
-                    })
-                };
-                let first = shows(&hits[0]);
-                let silhouette = scale > 1 && hits.iter().any(|h| shows(h) != first);
-                if silhouette {
-                    hits.extend(cast(&coverage[n as usize..]));
-                }
-                let direct = match silhouette {
-                    false => cast(&direct).into_iter().flatten().collect(),
-                    true => hits[..across].iter().flatten().copied().collect(),
-                };
-                PixelHits {
-                    groups: group_hits(&hits),
-                    direct,
-                    silhouette,
-                }
-            })
-            .collect();
+        let per_pixel = cast_pixels(scene, occluders, surface, camera, (w, h));
         let k = reflected_block(w, h);
         let (bw, bh) = (w.div_ceil(k), h.div_ceil(k));
         // Per (block, surface), per patch: the sum of its samples' points
@@ -337,13 +255,14 @@ impl PixelPoints {
             across_frames: Vec::new(),
             across_group: Vec::new(),
             silhouette: per_pixel.iter().map(|p| p.silhouette).collect(),
+            cast: per_pixel.iter().map(|p| p.samples).collect(),
             reflected_frames: Vec::new(),
             reflected_start: Vec::new(),
             reflected_weights: Vec::new(),
         };
         for (p, pixel) in per_pixel.iter().enumerate() {
             let block = (p as u32 % w) / k + (p as u32 / w) / k * bw;
-            let samples = n * [1, scale][usize::from(pixel.silhouette)];
+            let samples = pixel.samples;
             points.pixel_start.push(points.shares.len() as u32);
             for &(patch, sum, count) in &pixel.groups {
                 let group = points.group_patch.len() as u32;
@@ -475,6 +394,7 @@ impl PixelPoints {
             json!({
                 "pixels": size.0 * size.1,
                 "silhouette pixels": points.silhouette.iter().filter(|&&s| s).count(),
+                "rays": points.cast.iter().map(|&n| n as u64).sum::<u64>(),
             })
         });
         meter.total = meter.done + points.len();
@@ -770,6 +690,39 @@ mod tests {
         assert!(!edge.spread(g, SILHOUETTE_EVEN) && edge.differs_beside(&points, g));
         // One sample proves nothing spread.
         assert!(!levels(&[1.0], &[1.0]).spread(g, 0.0));
+    }
+
+    #[test]
+    fn a_pixel_casts_its_first_samples_alone_only_far_from_a_silhouette() {
+        let (_, points) = two_halves(30.0);
+        let (w, h) = (points.width as i64, points.height as i64);
+        let full = coverage_samples(points.width, points.height);
+        let near_silhouette = |p: i64| {
+            (-1..=1).any(|dy| {
+                (-1..=1).any(|dx| {
+                    let (x, y) = (p % w + dx, p / w + dy);
+                    (0..w).contains(&x)
+                        && (0..h).contains(&y)
+                        && points.silhouette[(x + y * w) as usize]
+                })
+            })
+        };
+        let (mut few, mut near) = (0, 0);
+        for p in 0..w * h {
+            let cast = points.cast[p as usize];
+            if near_silhouette(p) {
+                // Beside a silhouette every pixel casts the full count.
+                assert!(cast >= full, "pixel {p} beside a silhouette cast {cast}");
+                near += 1;
+            } else if cast == FIRST_COVERAGE {
+                few += 1;
+            }
+        }
+        // The fold's seam is a silhouette; most of the image is far from it.
+        assert!(
+            near > 0 && few > (w * h) as usize / 2,
+            "{near} near, {few} with the first samples alone"
+        );
     }
 
     #[test]
