@@ -61,6 +61,10 @@ fn group_hits(hits: &[Hit]) -> Groups {
     groups
 }
 
+/// What a camera ray shows: the smooth surface and material it met
+/// (`None`: nothing).
+type Shows = Option<(u32, usize)>;
+
 /// Every pixel's camera rays through `camera` into `scene` (ray-tracing
 /// hierarchy `occluders`, smooth surfaces `surface`), a `w x h` image.
 pub(super) fn cast_pixels(
@@ -93,42 +97,12 @@ pub(super) fn cast_pixels(
     };
     // What a hit shows: a seam between two patches of one smooth
     // surface and material is not a silhouette.
-    let shows = |h: &Option<(u32, Vec3)>| {
+    let shows = |h: &Hit| -> Shows {
         h.map(|(patch, _)| {
             (
                 surface[patch as usize],
                 scene.patches[patch as usize].material,
             )
-        })
-    };
-    // A first few samples a pixel; what one pixel's show alone.
-    let few = FIRST_COVERAGE.min(n) as usize;
-    let first: Vec<Vec<Hit>> = (0..w * h)
-        .into_par_iter()
-        .map(|p| cast(p, &coverage[..few]))
-        .collect();
-    let alone: Vec<Option<Option<(u32, usize)>>> = first
-        .par_iter()
-        .map(|hits| {
-            let one = shows(&hits[0]);
-            hits.iter().all(|h| shows(h) == one).then_some(one)
-        })
-        .collect();
-    // A pixel whose first samples and whose eight neighbours' all show
-    // one surface keeps its first samples: a silhouette near enough to
-    // cross it would show in one of them.
-    let settled = |p: u32| {
-        let (x, y) = ((p % w) as i64, (p / w) as i64);
-        let Some(one) = alone[p as usize] else {
-            return false;
-        };
-        (-1..=1).all(|dy| {
-            (-1..=1).all(|dx| {
-                let (nx, ny) = (x + dx, y + dy);
-                nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 || {
-                    alone[(nx + ny * w as i64) as usize] == Some(one)
-                }
-            })
         })
     };
     // The full count (and a silhouette's more) at pixel `p`; whether a
@@ -144,50 +118,80 @@ pub(super) fn cast_pixels(
         }
         silhouette
     };
-    let mut cast_so_far: Vec<(Vec<Hit>, bool)> = first
-        .into_par_iter()
-        .enumerate()
-        .map(|(p, mut hits)| {
-            let silhouette = !settled(p as u32) && grow(p as u32, &mut hits);
-            (hits, silhouette)
-        })
-        .collect();
-    // A pixel that kept its first samples beside a silhouette those
-    // missed (a sliver of the other surface in its neighbour's last
-    // ones) casts the full count too; one ring, as the sliver narrows.
-    let beside: Vec<bool> = (0..w * h)
+    // What pixel `p` keeps of its camera rays `hits`.
+    let keep = |p: u32, hits: Vec<Hit>, silhouette: bool| {
+        let direct = match silhouette {
+            false => cast(p, &direct).into_iter().flatten().collect(),
+            true => hits[..across].iter().flatten().copied().collect(),
+        };
+        PixelHits {
+            groups: group_hits(&hits),
+            direct,
+            silhouette,
+            samples: hits.len() as u32,
+        }
+    };
+    let few = FIRST_COVERAGE.min(n) as usize;
+    if few == n as usize {
+        // No fewer to start with (a large image): every pixel casts all.
+        return (0..w * h)
+            .into_par_iter()
+            .map(|p| {
+                let mut hits = cast(p, &coverage[..few]);
+                let silhouette = grow(p, &mut hits);
+                keep(p, hits, silhouette)
+            })
+            .collect();
+    }
+    // A first few samples a pixel, and the one surface they show, if one.
+    let first: Vec<(Vec<Hit>, Option<Shows>)> = (0..w * h)
         .into_par_iter()
         .map(|p| {
-            let (x, y) = ((p % w) as i64, (p / w) as i64);
-            cast_so_far[p as usize].0.len() < n as usize
-                && (-1..=1).any(|dy| {
-                    (-1..=1).any(|dx| {
-                        let (nx, ny) = (x + dx, y + dy);
-                        (0..w as i64).contains(&nx)
-                            && (0..h as i64).contains(&ny)
-                            && cast_so_far[(nx + ny * w as i64) as usize].1
-                    })
-                })
+            let hits = cast(p, &coverage[..few]);
+            let one = shows(&hits[0]);
+            let alone = hits.iter().all(|h| shows(h) == one).then_some(one);
+            (hits, alone)
         })
         .collect();
-    cast_so_far
-        .par_iter_mut()
-        .enumerate()
-        .filter(|(p, _)| beside[*p])
-        .for_each(|(p, (hits, silhouette))| *silhouette = grow(p as u32, hits));
-    cast_so_far
+    let neighbours = |p: u32| {
+        let (x, y) = ((p % w) as i64, (p / w) as i64);
+        (-1..=1i64)
+            .flat_map(move |dy| (-1..=1i64).map(move |dx| (x + dx, y + dy)))
+            .filter(move |&(nx, ny)| (0..w as i64).contains(&nx) && (0..h as i64).contains(&ny))
+            .map(move |(nx, ny)| (nx + ny * w as i64) as usize)
+    };
+    // A pixel whose first samples and whose eight neighbours' all show
+    // one surface keeps its first samples (for now): a silhouette near
+    // enough to cross it would show in one of them.
+    let settled = |p: u32| {
+        let alone = first[p as usize].1;
+        alone.is_some() && neighbours(p).all(|q| first[q].1 == alone)
+    };
+    let settled: Vec<bool> = (0..w * h).into_par_iter().map(settled).collect();
+    let kept: Vec<Result<PixelHits, Vec<Hit>>> = first
         .into_par_iter()
         .enumerate()
-        .map(|(p, (hits, silhouette))| {
-            let direct = match silhouette {
-                false => cast(p as u32, &direct).into_iter().flatten().collect(),
-                true => hits[..across].iter().flatten().copied().collect(),
-            };
-            PixelHits {
-                groups: group_hits(&hits),
-                direct,
-                silhouette,
-                samples: hits.len() as u32,
+        .map(|(p, (mut hits, _))| match settled[p] {
+            true => Err(hits),
+            false => {
+                let silhouette = grow(p as u32, &mut hits);
+                Ok(keep(p as u32, hits, silhouette))
+            }
+        })
+        .collect();
+    // One that kept them beside a silhouette they missed (a sliver of the
+    // other surface in its neighbour's last samples) casts the full
+    // count too; one ring, as the sliver narrows.
+    let beside_silhouette =
+        |p: u32| neighbours(p).any(|q| matches!(&kept[q], Ok(pixel) if pixel.silhouette));
+    let beside: Vec<bool> = (0..w * h).into_par_iter().map(beside_silhouette).collect();
+    kept.into_par_iter()
+        .enumerate()
+        .map(|(p, pixel)| match pixel {
+            Ok(pixel) => pixel,
+            Err(mut hits) => {
+                let silhouette = beside[p] && grow(p as u32, &mut hits);
+                keep(p as u32, hits, silhouette)
             }
         })
         .collect()
