@@ -1,4 +1,4 @@
-// Any-hit segment and first-hit ray queries against a binary BVH in
+// Any-hit segment and first-hit ray queries (one traversal, bvh_trace) against a binary BVH in
 // storage buffers
 // (mirrors src/gpu/rays/mod.rs::{BvhNode, BvhTriangle}, built by
 // src/formfactor/raytrace/flat_bvh.rs). The rules are those of
@@ -70,26 +70,20 @@ float bvh_hit_t(uint k, vec3 a, vec3 d, float tmin, float tmax) {
     return t > tmin && t < tmax ? t : -1.0;
 }
 
-bool bvh_hits(uint k, vec3 a, vec3 d, float tmin, float tmax) {
-    return bvh_hit_t(k, a, d, tmin, tmax) >= 0.0;
-}
-
 float bvh_safe(float x) {
     return abs(x) < 1e-30 ? (x < 0.0 ? -1e-30 : 1e-30) : x;
 }
 
-// Whether the segment from a to b is unblocked (node_count 0: no scene).
-bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
-    vec3 d = b - a;
-    float len = length(d);
-    if (node_count == 0u || isnan(len) || len <= 2.0 * eps) {
-        return true;
-    }
-    float tmin = eps / len;
-    float tmax = 1.0 - tmin;
+// The nearest triangle that a + t d meets with t strictly inside
+// (tmin, tmax), triangles of the patches in `skip` ignored: its t, and its
+// patch in `patch_id`; -1 when it meets none. `any`: the first one found,
+// not the nearest (a visibility query stops there).
+float bvh_trace(vec3 a, vec3 d, float tmin, float tmax, uvec2 skip, bool any, out uint patch_id) {
+    patch_id = 0xffffffffu;
+    float best = tmax;
     vec3 inv = 1.0 / vec3(bvh_safe(d.x), bvh_safe(d.y), bvh_safe(d.z));
-    if (bvh_slab(0u, a, inv, tmin, tmax) < 0.0) {
-        return true;
+    if (bvh_slab(0u, a, inv, tmin, best) < 0.0) {
+        return -1.0;
     }
     uint stack[BVH_STACK];
     int sp = 0;
@@ -99,16 +93,24 @@ bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
         uint index = bvh_nodes[node].index;
         if (count > 0u) {
             for (uint k = index; k < index + count; k++) {
-                uint patch_id = bvh_tris[k].patch_id;
-                if (patch_id != skip.x && patch_id != skip.y && bvh_hits(k, a, d, tmin, tmax)) {
-                    return false;
+                uint id = bvh_tris[k].patch_id;
+                if (id == skip.x || id == skip.y) {
+                    continue;
+                }
+                float t = bvh_hit_t(k, a, d, tmin, best);
+                if (t >= 0.0) {
+                    patch_id = id;
+                    if (any) {
+                        return t;
+                    }
+                    best = t;
                 }
             }
         } else {
             uint l = node + 1u;
             uint r = index;
-            float tl = bvh_slab(l, a, inv, tmin, tmax);
-            float tr = bvh_slab(r, a, inv, tmin, tmax);
+            float tl = bvh_slab(l, a, inv, tmin, best);
+            float tr = bvh_slab(r, a, inv, tmin, best);
             if (tl >= 0.0 && tr >= 0.0) {
                 // Nearer first; the other waits on the stack.
                 bool left_first = tl <= tr;
@@ -125,69 +127,12 @@ bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
                 continue;
             }
         }
-        if (sp == 0) {
-            return true;
-        }
-        node = stack[--sp];
-    }
-    return true;
-}
-
-// The nearest triangle the ray a + t d (t > tmin) meets, patch `skip`
-// ignored (Occluders::first_hit_beyond): its t, and its patch in
-// `patch_id`; -1 when it meets none.
-float bvh_first_hit(vec3 a, vec3 d, float tmin, uint skip, uint node_count, out uint patch_id) {
-    patch_id = 0xffffffffu;
-    float best = 1.0 / 0.0;
-    if (node_count == 0u) {
-        return -1.0;
-    }
-    vec3 inv = 1.0 / vec3(bvh_safe(d.x), bvh_safe(d.y), bvh_safe(d.z));
-    if (bvh_slab(0u, a, inv, tmin, best) < 0.0) {
-        return -1.0;
-    }
-    uint stack[BVH_STACK];
-    int sp = 0;
-    uint node = 0u;
-    while (true) {
-        uint count = bvh_nodes[node].count;
-        uint index = bvh_nodes[node].index;
-        if (count > 0u) {
-            for (uint k = index; k < index + count; k++) {
-                if (bvh_tris[k].patch_id == skip) {
-                    continue;
-                }
-                float t = bvh_hit_t(k, a, d, tmin, best);
-                if (t >= 0.0) {
-                    best = t;
-                    patch_id = bvh_tris[k].patch_id;
-                }
-            }
-        } else {
-            uint l = node + 1u;
-            uint r = index;
-            float tl = bvh_slab(l, a, inv, tmin, best);
-            float tr = bvh_slab(r, a, inv, tmin, best);
-            if (tl >= 0.0 && tr >= 0.0) {
-                bool left_first = tl <= tr;
-                stack[sp++] = left_first ? r : l;
-                node = left_first ? l : r;
-                continue;
-            }
-            if (tl >= 0.0) {
-                node = l;
-                continue;
-            }
-            if (tr >= 0.0) {
-                node = r;
-                continue;
-            }
-        }
-        // The next box on the stack that the nearest hit so far leaves open.
+        // The next box on the stack that the nearest hit so far leaves
+        // open (any box pushed is, until a hit shortens the ray).
         bool found = false;
         while (sp > 0) {
             node = stack[--sp];
-            if (bvh_slab(node, a, inv, tmin, best) >= 0.0) {
+            if (any || bvh_slab(node, a, inv, tmin, best) >= 0.0) {
                 found = true;
                 break;
             }
@@ -197,4 +142,27 @@ float bvh_first_hit(vec3 a, vec3 d, float tmin, uint skip, uint node_count, out 
         }
     }
     return patch_id == 0xffffffffu ? -1.0 : best;
+}
+
+// Whether the segment from a to b is unblocked (node_count 0: no scene).
+bool bvh_visible(vec3 a, vec3 b, uvec2 skip, float eps, uint node_count) {
+    vec3 d = b - a;
+    float len = length(d);
+    if (node_count == 0u || isnan(len) || len <= 2.0 * eps) {
+        return true;
+    }
+    float tmin = eps / len;
+    uint patch_id;
+    return bvh_trace(a, d, tmin, 1.0 - tmin, skip, true, patch_id) < 0.0;
+}
+
+// The nearest triangle the ray a + t d (t > tmin) meets, patch `skip`
+// ignored (Occluders::first_hit_beyond): its t, and its patch in
+// `patch_id`; -1 when it meets none.
+float bvh_first_hit(vec3 a, vec3 d, float tmin, uint skip, uint node_count, out uint patch_id) {
+    patch_id = 0xffffffffu;
+    if (node_count == 0u) {
+        return -1.0;
+    }
+    return bvh_trace(a, d, tmin, 1.0 / 0.0, uvec2(skip, skip), false, patch_id);
 }
