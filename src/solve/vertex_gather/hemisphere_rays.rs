@@ -164,6 +164,10 @@ impl HemisphereRays {
 /// nothing), in the order its directions were drawn.
 pub(super) type FirstHits = Vec<Option<(f32, u32)>>;
 
+/// A point's hemisphere rays as traced on the GPU: their origin, their
+/// directions and what each met.
+pub(super) type Cast = (Vec3, Vec<Vec3>, FirstHits);
+
 /// What the rays gathered at a point.
 #[derive(Debug, Clone, Copy, Default)]
 pub(super) struct RayGathered {
@@ -290,13 +294,13 @@ impl Gather<'_> {
         out
     }
 
-    /// The first hits of the hemisphere rays from `frames`, traced on the
+    /// The hemisphere rays from `frames` and their first hits, traced on the
     /// GPU: frame `i`'s directions are the first drawn from random stream
     /// `streams[i]`, as [`Self::by_hemisphere_rays`] draws them when they
     /// come first from its stream (the gather at a point sends its rays
     /// before it draws anything else). `None` where the GPU has no pass or
     /// it fails (it is then dropped, and the CPU traces them).
-    pub(super) fn hits_on_gpu(&self, frames: &[Frame], streams: &[u64]) -> Option<Vec<FirstHits>> {
+    pub(super) fn hits_on_gpu(&self, frames: &[Frame], streams: &[u64]) -> Option<Vec<Cast>> {
         let gpu = self.gpu_rays.as_ref()?;
         let cast: Vec<(Vec3, Vec<Vec3>)> = frames
             .par_iter()
@@ -334,8 +338,11 @@ impl Gather<'_> {
         };
         let mut hits = hits.iter().map(Hit::met);
         Some(
-            cast.iter()
-                .map(|(_, directions)| hits.by_ref().take(directions.len()).collect())
+            cast.into_iter()
+                .map(|(origin, directions)| {
+                    let met = hits.by_ref().take(directions.len()).collect();
+                    (origin, directions, met)
+                })
                 .collect(),
         )
     }
@@ -361,7 +368,7 @@ impl Gather<'_> {
         let streams: Vec<u64> = todo.iter().map(|&i| (first + i) as u64).collect();
         let traced = self.hits_on_gpu(&frames, &streams)?;
         let mut hits = vec![None; chunk.len()];
-        for (i, h) in todo.into_iter().zip(traced) {
+        for (i, (_, _, h)) in todo.into_iter().zip(traced) {
             hits[i] = Some(h);
         }
         Some(hits)
@@ -376,21 +383,12 @@ impl Gather<'_> {
         frames: &[Frame],
         streams: &[u64],
     ) -> Option<Vec<Vec3>> {
-        let hits = self.hits_on_gpu(frames, streams)?;
+        let cast = self.hits_on_gpu(frames, streams)?;
         Some(
-            frames
-                .par_iter()
-                .zip(streams)
-                .zip(&hits)
-                .map(|((&(p, n, patch), &stream), hits)| {
-                    let at = Receiver {
-                        p,
-                        n,
-                        patch,
-                        emitter_rays: 0,
-                    };
-                    let mut rng = Pcg32::new(SEED, stream);
-                    self.by_hemisphere_rays(&at, &mut rng, Some(hits), None, None)
+            cast.par_iter()
+                .map(|(origin, directions, hits)| {
+                    let met = hits.iter().copied();
+                    self.landings(*origin, directions, met, None, None)
                         .reflected
                 })
                 .collect(),
