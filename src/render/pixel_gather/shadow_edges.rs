@@ -36,14 +36,14 @@ impl PixelPoints {
         });
         let frames =
             |of: &[usize]| -> Vec<Frame> { of.iter().map(|&i| self.across_frames[i]).collect() };
+        let groups_of = |of: &[usize]| {
+            of.iter()
+                .map(|&i| self.across_group[i])
+                .collect::<Vec<u32>>()
+        };
         let found = gather.light_at_points(&frames(&few), light, first, meter)?;
-        let groups_of =
-            |of: &[usize]| -> Vec<u32> { of.iter().map(|&i| self.across_group[i]).collect() };
-        let so_far = samples
-            .iter()
-            .copied()
-            .chain(groups_of(&few).into_iter().zip(found.iter().copied()));
-        let levels = Levels::new(self, so_far);
+        let mut out: Vec<(u32, Vec3)> = groups_of(&few).into_iter().zip(found).collect();
+        let levels = Levels::new(self, samples.iter().chain(&out).copied());
         let mut uneven = vec![None; self.group_patch.len()];
         let rest: Vec<usize> = rest
             .into_iter()
@@ -56,7 +56,6 @@ impl PixelPoints {
             .collect();
         let first = first + few.len() as u64;
         let more = gather.light_at_points(&frames(&rest), light, first, meter)?;
-        let mut out: Vec<(u32, Vec3)> = groups_of(&few).into_iter().zip(found).collect();
         out.extend(groups_of(&rest).into_iter().zip(more));
         Some(out)
     }
