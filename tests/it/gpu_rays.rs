@@ -35,6 +35,21 @@ fn point_on(scene: &Scene, p: usize, rng: &mut Pcg32) -> Vec3 {
     v[0] + a * (v[k] - v[0]) + b * (v[k + 1] - v[0])
 }
 
+/// A random unit direction on the side of a surface `normal` faces.
+fn direction_over(normal: Vec3, rng: &mut Pcg32) -> Vec3 {
+    let d = Vec3::new(
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+        rng.next_f32() - 0.5,
+    )
+    .normalize_or(normal);
+    if d.dot(normal) < 0.0 {
+        -d
+    } else {
+        d
+    }
+}
+
 /// Random segments: half between random points of the scene's box (no
 /// patch skipped), half between points on two random patches (both
 /// skipped, as the gather casts them).
@@ -155,15 +170,7 @@ fn first_hits_agree(name: &str, n: usize) {
             let p = ((rng.next_f32() * patches as f32) as usize).min(patches - 1);
             let normal = scene.patches[p].normal;
             let a = point_on(&scene, p, &mut rng) + occluders.epsilon() * normal;
-            let mut d = Vec3::new(
-                rng.next_f32() - 0.5,
-                rng.next_f32() - 0.5,
-                rng.next_f32() - 0.5,
-            )
-            .normalize_or(normal);
-            if d.dot(normal) < 0.0 {
-                d = -d;
-            }
+            let d = direction_over(normal, &mut rng);
             Ray {
                 a: a.into(),
                 skip: p as u32,
@@ -688,13 +695,7 @@ fn rays_from_the_edges_of_a_small_closed_room_never_escape_on_the_cpu_or_the_gpu
                     let on_edge = v[k].lerp(v[(k + 1) % v.len()], rng.next_f32());
                     let inward = (patch.centroid() - on_edge).normalize();
                     let a = on_edge + occluders.epsilon() * (inward + patch.normal);
-                    let d = Vec3::new(
-                        rng.next_f32() - 0.5,
-                        rng.next_f32() - 0.5,
-                        rng.next_f32() - 0.5,
-                    )
-                    .normalize_or(patch.normal);
-                    let d = if d.dot(patch.normal) < 0.0 { -d } else { d };
+                    let d = direction_over(patch.normal, &mut rng);
                     rays.push(Ray {
                         a: a.into(),
                         skip: p as u32,
