@@ -508,6 +508,7 @@ pub fn run_scene(
     let mut reflected_reuse = (0, 0);
     let mut direct_on_gpu = false;
     let mut hemisphere_rays = None;
+    let mut camera_rays_on_gpu = None;
     let mut centres_gathered = 0;
     let mut pixel_image = None;
     let shown = match &final_gather {
@@ -585,6 +586,7 @@ pub fn run_scene(
                         hemisphere_rays = gather
                             .by_hemisphere_rays()
                             .then(|| gather.hemisphere_rays_on_gpu());
+                        camera_rays_on_gpu = at_pixels.then(|| gather.rays_on_gpu());
                         centres_gathered = gather.centres_gathered();
                         warnings.extend(gather.gpu_warning());
                         shaded
@@ -691,6 +693,7 @@ pub fn run_scene(
         reflected_reuse,
         direct_on_gpu,
         hemisphere_rays,
+        camera_rays_on_gpu,
         centres_gathered,
         gathered_at_pixels,
     })

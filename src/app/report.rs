@@ -76,9 +76,12 @@ pub struct Report {
     /// (`--direct-light`).
     pub direct_on_gpu: bool,
     /// Whether hemisphere rays gathered the reflected light (a scene of
-    /// small patches), and then whether the pixels' were traced on the GPU
-    /// (`--hemisphere-device`).
+    /// small patches), and then whether they were traced on the GPU
+    /// (`--ray-device`).
     pub hemisphere_rays: Option<bool>,
+    /// Whether the image was gathered at its pixels, and then whether its
+    /// camera rays were traced on the GPU (`--ray-device`).
+    pub camera_rays_on_gpu: Option<bool>,
     /// Where the image was gathered at its pixels
     /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
     /// vertex values: the points its reflected light and its direct light
@@ -155,6 +158,11 @@ impl Report {
             "centres_gathered": self.centres_gathered,
             "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
             "hemisphere_rays": match self.hemisphere_rays {
+                None => "none",
+                Some(true) => "gpu",
+                Some(false) => "cpu",
+            },
+            "camera_rays": match self.camera_rays_on_gpu {
                 None => "none",
                 Some(true) => "gpu",
                 Some(false) => "cpu",

@@ -331,14 +331,16 @@ pub(crate) struct RenderArgs {
     /// of a few large patches. 0: visit every patch (for comparison).
     #[arg(long, default_value_t = VertexGather::default().hemisphere_rays, value_name = "N")]
     pub(crate) hemisphere_rays: usize,
-    /// Where the hemisphere rays (--hemisphere-rays) are traced, at the
-    /// element centres, the display vertices and the pixels: on the GPU (a
-    /// compute pass over a BVH in storage buffers) or the CPU. The same
+    /// Where the final gather's first-hit rays are traced: the image's
+    /// camera rays, and the hemisphere rays (--hemisphere-rays) of the
+    /// element centres, the display vertices and the pixels. On the GPU (a
+    /// compute pass over a BVH in storage buffers) or the CPU; the same
     /// rays either way. auto: the GPU unless the device is the CPU itself
-    /// (lavapipe, where the pass is 2.6x slower than the CPU's rays on
-    /// rfield, `cargo bench --bench gpu_rays`).
-    #[arg(long, value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
-    pub(crate) hemisphere_device: DirectLightArg,
+    /// (lavapipe, where the pass is slower than the CPU's rays: on rfield
+    /// 2.6x for the hemisphere rays, `cargo bench --bench gpu_rays`, and
+    /// 2.9x for the camera rays). Also --hemisphere-device.
+    #[arg(long, alias = "hemisphere-device", value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
+    pub(crate) ray_device: DirectLightArg,
     /// Where the final gather shades the image. pixels: at the points each
     /// pixel's samples see (the reflected light once per patch in small
     /// blocks of pixels, the direct light at 4 samples a pixel up to

@@ -86,7 +86,7 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         lit_samples: !args.source_means,
         share_centres: !args.own_centres,
         hemisphere_rays: args.hemisphere_rays,
-        hemisphere_device: args.hemisphere_device.direct_light(),
+        ray_device: args.ray_device.direct_light(),
         ..VertexGather::default()
     });
     job.display_edge = args.display_edge;

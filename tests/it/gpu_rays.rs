@@ -608,10 +608,10 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     let device = common::device();
     let setup = meshed("r", |patch| 0.5 + (patch % 7) as f32 * 0.1);
     let (scene, mesh) = (&setup.0, &setup.1);
-    let gather = |hemisphere_device| {
+    let gather = |ray_device| {
         // No reflected cache: every point traces its own rays.
         let settings = VertexGather {
-            hemisphere_device,
+            ray_device,
             reuse: 0.0,
             ..VertexGather::default()
         };
@@ -621,9 +621,9 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     assert!(gpu.hemisphere_rays_on_gpu() && !cpu.hemisphere_rays_on_gpu());
     assert_eq!(gpu.gpu_warning(), None);
     // The Jacobi pass traced its centres' rays there.
-    let by_the_pass = gpu.hemisphere_rays_traced_on_gpu();
+    let by_the_pass = gpu.rays_traced_on_gpu();
     assert!(by_the_pass > 0, "the centres' rays were traced on the CPU");
-    assert_eq!(cpu.hemisphere_rays_traced_on_gpu(), 0);
+    assert_eq!(cpu.rays_traced_on_gpu(), 0);
     let frames: Vec<(Vec3, Vec3, u32)> = mesh
         .elements
         .iter()
@@ -662,7 +662,7 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     }
     // Both kinds of point traced theirs on the GPU: 256 rays each.
     let rays = VertexGather::default().hemisphere_rays as u64;
-    let traced = gpu.hemisphere_rays_traced_on_gpu() - by_the_pass;
+    let traced = gpu.rays_traced_on_gpu() - by_the_pass;
     assert_eq!(traced, 2 * rays * frames.len() as u64);
     common::assert_validation_clean(&device);
 }
@@ -720,6 +720,61 @@ fn rays_from_the_edges_of_a_small_closed_room_never_escape_on_the_cpu_or_the_gpu
             rays.len()
         );
         assert_eq!((cpu, on_gpu), (0, 0), "room of side {side}");
+    }
+    common::assert_validation_clean(&device);
+}
+
+#[test]
+fn the_camera_rays_show_the_same_patches_on_the_gpu_and_the_cpu() {
+    // Every pixel's camera rays (the first few, the full count near a
+    // silhouette, the direct samples) traced by the final gather's GPU
+    // pass against the CPU's hierarchy: each pixel shows the same patches
+    // in the same shares, but where a ray grazes the edge two patches
+    // share (either is met there; on rfield at 256x256, 8 of 65,536
+    // pixels on lavapipe, each one sample apart).
+    use vkrad::render::pixel_gather::{direct_samples, PixelPoints};
+    use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
+    let device = common::device();
+    for name in ["cornell", "r"] {
+        let setup = meshed(name, |_| 0.5);
+        let settings = VertexGather {
+            ray_device: DirectLight::Gpu,
+            ..VertexGather::default()
+        };
+        let gather = final_gather(&setup, settings, &device);
+        assert!(gather.rays_on_gpu(), "{name}: no GPU pass");
+        let scene = &setup.0;
+        let camera = vkrad::render::default_camera(scene);
+        let surface = gather.smooth_surfaces();
+        let size = (96, 96);
+        let pixels = (size.0 * size.1) as usize;
+        let before = gather.rays_traced_on_gpu();
+        let on_gpu = PixelPoints::cast(scene, &gather, surface, &camera, size);
+        assert!(gather.rays_on_gpu(), "{name}: the GPU failed");
+        // The coverage rays, and the direct samples' where no silhouette
+        // lends its own.
+        let traced = gather.rays_traced_on_gpu() - before;
+        let most = on_gpu.rays_cast() + direct_samples(size.0, size.1) as u64 * pixels as u64;
+        assert!(
+            (on_gpu.rays_cast()..=most).contains(&traced),
+            "{name}: {traced} rays on the GPU, {} cast",
+            on_gpu.rays_cast()
+        );
+        let on_cpu = PixelPoints::cast(scene, gather.occluders(), surface, &camera, size);
+        let differ = (0..pixels)
+            .filter(|&p| on_gpu.shown(p) != on_cpu.shown(p))
+            .inspect(|&p| {
+                let (gpu, cpu) = (on_gpu.shown(p), on_cpu.shown(p));
+                println!("{name}: pixel {p}: GPU {gpu:?}, CPU {cpu:?}");
+            })
+            .count();
+        let shown = (0..pixels).filter(|&p| !on_cpu.shown(p).is_empty()).count();
+        println!("{name}: {differ} of {pixels} pixels differ, {shown} show a patch");
+        assert!(shown > pixels / 4, "{name}: the camera sees too little");
+        assert!(
+            differ <= pixels / 200,
+            "{name}: {differ} of {pixels} pixels differ"
+        );
     }
     common::assert_validation_clean(&device);
 }

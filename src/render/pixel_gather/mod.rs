@@ -10,8 +10,9 @@
 //! cost is about a constant number of gathers per image, whatever the
 //! scene's size.
 //!
-//! Each pixel casts [`coverage_samples`] stratified camera rays on the CPU,
-//! through the final gather's own ray-tracing hierarchy; the samples that
+//! Each pixel casts [`coverage_samples`] stratified camera rays through
+//! the final gather's own ray-tracing hierarchy, on the CPU or (with its
+//! first-hit rays, `--ray-device`) the GPU; the samples that
 //! meet the same patch from its front form a group, weighted by their
 //! count. Samples that meet nothing or a patch's back are black (a
 //! one-sided diffuse surface, as the path tracer has it). How each group's
@@ -24,7 +25,6 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::pixel_samples;
-use crate::formfactor::raytrace::Occluders;
 use crate::output::HdrImage;
 use crate::scene::{Camera, Scene};
 use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
@@ -34,8 +34,8 @@ use serde_json::json;
 mod coverage;
 mod shadow_edges;
 
-pub use coverage::FIRST_COVERAGE;
-use coverage::{cast_pixels, front_hit};
+use coverage::cast_pixels;
+pub use coverage::{CameraRayTracer, FIRST_COVERAGE};
 
 /// Where the final gather shades the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -225,18 +225,18 @@ type Group = (u32, Vec3, u32);
 type Groups = Vec<Group>;
 
 impl PixelPoints {
-    /// Casts every pixel's samples through `camera` into `scene`, whose
-    /// ray-tracing hierarchy is `occluders` ([`FinalGather::occluders`])
-    /// and whose patches' smooth surfaces are `surface`
+    /// Casts every pixel's samples through `camera` into `scene`, traced
+    /// by `tracer` (the final gather's ray-tracing hierarchy, on the CPU
+    /// or the GPU), whose patches' smooth surfaces are `surface`
     /// ([`FinalGather::smooth_surfaces`]).
     pub fn cast(
         scene: &Scene,
-        occluders: &Occluders,
+        tracer: &dyn CameraRayTracer,
         surface: &[u32],
         camera: &Camera,
         (w, h): (u32, u32),
     ) -> Self {
-        let per_pixel = cast_pixels(scene, occluders, surface, camera, (w, h));
+        let per_pixel = cast_pixels(scene, tracer, surface, camera, (w, h));
         let k = reflected_block(w, h);
         let (bw, bh) = (w.div_ceil(k), h.div_ceil(k));
         // Per (block, surface), per patch: the sum of its samples' points
@@ -387,14 +387,14 @@ impl PixelPoints {
         size: (u32, u32),
         meter: &mut Meter,
     ) -> Option<(HdrImage, (usize, usize))> {
-        let (occluders, surface) = (gather.occluders(), gather.smooth_surfaces());
+        let surface = gather.smooth_surfaces();
         let start = Instant::now();
-        let points = PixelPoints::cast(scene, occluders, surface, camera, size);
+        let points = PixelPoints::cast(scene, gather, surface, camera, size);
         span_since(meter.trace, cat::STEP, "camera rays", start, || {
             json!({
                 "pixels": size.0 * size.1,
                 "silhouette pixels": points.silhouette.iter().filter(|&&s| s).count(),
-                "rays": points.cast.iter().map(|&n| n as u64).sum::<u64>(),
+                "rays": points.rays_cast(),
             })
         });
         meter.total = meter.done + points.len();
@@ -443,7 +443,7 @@ impl PixelPoints {
         step("direct light across silhouettes", start, across.len());
         samples.extend(across);
         let start = Instant::now();
-        let (frames, groups) = self.edge_frames(scene, gather.occluders(), &samples);
+        let (frames, groups) = self.edge_frames(scene, gather, &samples);
         let first = (self.direct_frames.len() + self.across_frames.len()) as u64;
         let light = PointLight::Direct {
             samples: per_pixel + edge_samples(w, h),
@@ -453,6 +453,19 @@ impl PixelPoints {
         samples.extend(groups.into_iter().zip(more));
         let counts = (reflected.len(), samples.len());
         Some((self.image(scene, &reflected, &samples), counts))
+    }
+
+    /// The patches pixel `p` (row-major, top row first) shows, each with
+    /// its share of the pixel's camera rays.
+    pub fn shown(&self, p: usize) -> Vec<(u32, f32)> {
+        let range = self.pixel_start[p] as usize..self.pixel_start[p + 1] as usize;
+        let group = |&(g, share): &(u32, f32)| (self.group_patch[g as usize], share);
+        self.shares[range].iter().map(group).collect()
+    }
+
+    /// Camera rays cast, all pixels together.
+    pub fn rays_cast(&self) -> u64 {
+        self.cast.iter().map(|&n| n as u64).sum()
     }
 
     /// Points to gather at, for a progress count.
@@ -544,6 +557,7 @@ impl CameraRays {
 mod tests {
     use super::shadow_edges::Levels;
     use super::*;
+    use crate::formfactor::raytrace::Occluders;
     use crate::render::camera_view_proj;
 
     fn camera() -> Camera {
@@ -758,8 +772,8 @@ mod tests {
             let left = (0..columns)
                 .filter(|&c| {
                     let sx = x + (c as f32 + 0.5) / columns as f32;
-                    front_hit(&scene, &occluders, &rays, points.camera.eye, sx, y + 0.5)
-                        .is_some_and(|hit| hit.0 == 0)
+                    let (eye, d) = (points.camera.eye, rays.direction(sx, y + 0.5));
+                    occluders.first_hit(eye, d).is_some_and(|hit| hit.1 == 0)
                 })
                 .count() as f32
                 / columns as f32;

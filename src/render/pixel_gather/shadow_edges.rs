@@ -5,11 +5,11 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::coverage::Caster;
 use super::{
-    edge_samples, front_hit, pixel_samples, CameraRays, Frame, PixelPoints, EDGE_CONTRAST,
+    edge_samples, pixel_samples, CameraRayTracer, Frame, PixelPoints, EDGE_CONTRAST,
     SILHOUETTE_EVEN, SILHOUETTE_FIRST,
 };
-use crate::formfactor::raytrace::Occluders;
 use crate::scene::Scene;
 use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
 
@@ -68,7 +68,7 @@ impl PixelPoints {
     pub(super) fn edge_frames(
         &self,
         scene: &Scene,
-        occluders: &Occluders,
+        tracer: &dyn CameraRayTracer,
         samples: &[(u32, Vec3)],
     ) -> (Vec<Frame>, Vec<u32>) {
         let levels = Levels::new(self, samples.iter().copied());
@@ -77,23 +77,30 @@ impl PixelPoints {
             return (Vec::new(), Vec::new());
         }
         let offsets = pixel_samples(extra);
-        let rays = CameraRays::new(&self.camera, self.width, self.height);
-        let found: Vec<Vec<(Frame, u32)>> = (0..self.group_patch.len() as u32)
+        let edges: Vec<u32> = (0..self.group_patch.len() as u32)
             .into_par_iter()
             .filter(|&g| {
                 // A silhouette's pixel holds its extra samples already.
                 !self.silhouette[self.group_pixel[g as usize] as usize]
                     && (levels.spread(g, EDGE_CONTRAST) || levels.differs_beside(self, g))
             })
-            .map(|g| {
-                let (patch, p) = (self.group_patch[g as usize], self.group_pixel[g as usize]);
-                let (x, y) = ((p % self.width) as f32, (p / self.width) as f32);
+            .collect();
+        let requests: Vec<(u32, &[(f32, f32)])> = edges
+            .iter()
+            .map(|&g| (self.group_pixel[g as usize], &offsets[..]))
+            .collect();
+        let mut hits = vec![Vec::new(); requests.len()];
+        Caster::new(scene, tracer, &self.camera, (self.width, self.height))
+            .cast_into(&requests, &mut hits);
+        // The samples that meet the group's own patch.
+        let found: Vec<Vec<(Frame, u32)>> = edges
+            .par_iter()
+            .zip(hits)
+            .map(|(&g, hits)| {
+                let patch = self.group_patch[g as usize];
                 let normal = scene.patches[patch as usize].normal;
-                offsets
-                    .iter()
-                    .filter_map(|&(sx, sy)| {
-                        front_hit(scene, occluders, &rays, self.camera.eye, x + sx, y + sy)
-                    })
+                hits.into_iter()
+                    .flatten()
                     .filter(|&(hit, _)| hit == patch)
                     .map(|(_, at)| ((at, normal, patch), g))
                     .collect()

@@ -23,15 +23,13 @@ use glam::Vec3;
 
 use super::{Frame, Source, VertexGather};
 use crate::error::Result;
-use crate::formfactor::raytrace::flat_bvh::FlatBvh;
 use crate::gpu::rays::{GatherPoint, GatherSource, GpuBvh, SourceGatherPass, MAX_SOURCE_CORNERS};
 use crate::gpu::Device;
-use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
 
 /// Where one of the final gather's GPU ray passes runs: the emitters'
 /// direct light ([`VertexGather::direct_light`](super::VertexGather::direct_light)) or the pixels'
-/// hemisphere rays ([`VertexGather::hemisphere_device`](super::VertexGather::hemisphere_device)).
+/// first-hit rays ([`VertexGather::ray_device`](super::VertexGather::ray_device)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DirectLight {
     /// On the GPU when the device is one, on the CPU when the device is
@@ -66,12 +64,10 @@ pub(super) struct GpuDirect {
 }
 
 impl GpuDirect {
-    /// The pass over `scene`'s BVH, with no sources yet.
-    pub(super) fn new(device: &Arc<Device>, scene: &Scene) -> Result<Self> {
-        let flat = FlatBvh::new(scene);
-        let bvh = GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps)?;
+    /// The pass over `bvh` (`gpu_rays::upload_bvh`), with no sources yet.
+    pub(super) fn new(device: &Arc<Device>, bvh: Arc<GpuBvh>) -> Result<Self> {
         Ok(GpuDirect {
-            pass: Mutex::new(Some(SourceGatherPass::new(device, Arc::new(bvh))?)),
+            pass: Mutex::new(Some(SourceGatherPass::new(device, bvh)?)),
             emitters: Vec::new(),
             failure: Mutex::new(None),
         })

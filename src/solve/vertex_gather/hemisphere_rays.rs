@@ -35,22 +35,19 @@
 //! sample.
 
 use std::f32::consts::PI;
-use std::sync::Arc;
 
 use glam::Vec3;
 
+use super::gpu_rays::GpuRays;
 use super::links::Links;
 use super::point_gather::Gather;
 use super::point_gather::RANDOM_SEED as SEED;
 use super::receiver::Receiver;
 use super::reflected_cache::HarmonicDistance;
 use super::Frame;
-use crate::error::Result;
-use crate::formfactor::raytrace::flat_bvh::FlatBvh;
 use crate::formfactor::sampling::{grid, Pcg32};
 use crate::geom::tangent_frame;
-use crate::gpu::rays::{FirstHitPass, GpuBvh, Hit, Ray};
-use crate::gpu::Device;
+use crate::gpu::rays::Ray;
 use crate::scene::{Patch, Scene};
 use crate::solve::hierarchy::ShooterTree;
 use rayon::prelude::*;
@@ -131,14 +128,6 @@ impl HemisphereRays {
             rays,
             any: by_rays,
         }
-    }
-
-    /// The GPU pass that traces the pixels' hemisphere rays in `scene`
-    /// (over the flat BVH the direct-light pass uses).
-    pub(super) fn gpu_pass(scene: &Scene, device: &Arc<Device>) -> Result<FirstHitPass> {
-        let flat = FlatBvh::new(scene);
-        let bvh = GpuBvh::new(device, &flat.nodes, &flat.triangles, flat.eps)?;
-        FirstHitPass::new(device, Arc::new(bvh))
     }
 
     /// Sends `rays` rays a point from here on (the element centres take
@@ -294,6 +283,12 @@ impl Gather<'_> {
         out
     }
 
+    /// Whether the hemisphere rays are traced on the GPU: the scene
+    /// gathers by them, and the pass is there and works.
+    pub(super) fn hemisphere_rays_on_gpu(&self) -> bool {
+        self.hemisphere_rays.any() && self.gpu_rays.as_ref().is_some_and(GpuRays::working)
+    }
+
     /// The hemisphere rays from `frames` and their first hits, traced on the
     /// GPU: frame `i`'s directions are the first drawn from random stream
     /// `streams[i]`, as [`Self::by_hemisphere_rays`] draws them when they
@@ -301,7 +296,10 @@ impl Gather<'_> {
     /// before it draws anything else). `None` where the GPU has no pass or
     /// it fails (it is then dropped, and the CPU traces them).
     pub(super) fn hits_on_gpu(&self, frames: &[Frame], streams: &[u64]) -> Option<Vec<Cast>> {
-        let gpu = self.gpu_rays.as_ref()?;
+        let gpu = self
+            .gpu_rays
+            .as_ref()
+            .filter(|_| self.hemisphere_rays.any())?;
         let cast: Vec<(Vec3, Vec<Vec3>)> = frames
             .par_iter()
             .zip(streams)
@@ -328,15 +326,7 @@ impl Gather<'_> {
                 })
             })
             .collect();
-        let mut guard = gpu.lock().ok()?;
-        let hits = match guard.as_mut()?.first_hits(&rays) {
-            Ok(hits) => hits,
-            Err(_) => {
-                *guard = None;
-                return None;
-            }
-        };
-        let mut hits = hits.iter().map(Hit::met);
+        let mut hits = gpu.first_hits(&rays)?.into_iter();
         Some(
             cast.into_iter()
                 .map(|(origin, directions)| {
@@ -357,7 +347,7 @@ impl Gather<'_> {
         first: usize,
         traces: impl Fn(usize, &Frame) -> bool + Sync,
     ) -> Option<Vec<Option<FirstHits>>> {
-        if self.gpu_rays.is_none() || !self.hemisphere_rays.any() {
+        if !self.hemisphere_rays_on_gpu() {
             return None;
         }
         let todo: Vec<usize> = (0..chunk.len())

@@ -28,7 +28,7 @@
 //! the emitters stay exact.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, OnceLock};
 
 use glam::Vec3;
 
@@ -36,6 +36,7 @@ use self::clusters::Clusters;
 use self::exposure::{exposed_parts, ExposedPart, EXPOSURE_GRID};
 pub use self::gpu_direct::DirectLight;
 use self::gpu_direct::GpuDirect;
+use self::gpu_rays::{upload_bvh, GpuRays};
 pub use self::hemisphere_rays::HEMISPHERE_RAYS;
 use self::hemisphere_rays::{HemisphereRays, CENTRE_RAYS_SHARE, LANDING_EXPOSURE_GRID};
 use self::links::Links;
@@ -49,7 +50,7 @@ pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
-use crate::gpu::rays::FirstHitPass;
+use crate::gpu::rays::GpuBvh;
 use crate::gpu::Device;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -98,11 +99,12 @@ pub struct VertexGather {
     /// in a scene of small patches ([`hemisphere_rays`]); 0: every patch
     /// is visited as a source, for comparison.
     pub hemisphere_rays: usize,
-    /// Where the hemisphere rays are traced: the element centres', the
-    /// display vertices' and the pixels' reflected points'. Each point's
-    /// rays come from its own random stream, so the CPU and the GPU trace
-    /// the same ones.
-    pub hemisphere_device: DirectLight,
+    /// Where the first-hit rays are traced: the hemisphere rays (of the
+    /// element centres, the display vertices and the pixels' reflected
+    /// points) and the image's camera rays. Each point's hemisphere rays
+    /// come from its own random stream, so the CPU and the GPU trace the
+    /// same ones.
+    pub ray_device: DirectLight,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -147,7 +149,7 @@ impl Default for VertexGather {
             lit_samples: true,
             share_centres: true,
             hemisphere_rays: HEMISPHERE_RAYS,
-            hemisphere_device: DirectLight::Auto,
+            ray_device: DirectLight::Auto,
         }
     }
 }
@@ -388,21 +390,26 @@ impl<'a> FinalGather<'a> {
             gpu_rays: None,
         };
         let mut gpu_refused = None;
-        let on_gpu = |device: &Device| settings.direct_light.on_gpu(device);
-        if let Some(device) = device.filter(|d| settings.hemisphere_device.on_gpu(d)) {
-            if gather.hemisphere_rays.any() {
-                match HemisphereRays::gpu_pass(scene, device) {
-                    Ok(pass) => gather.gpu_rays = Some(Mutex::new(Some(pass))),
-                    Err(e) => {
-                        gpu_refused = Some(format!(
-                            "the GPU cannot trace the hemisphere rays ({e}); the CPU did"
-                        ))
-                    }
+        // One BVH on the GPU for both passes, uploaded when one wants it.
+        let mut bvh = None;
+        let mut upload = |device: &Arc<Device>| -> crate::error::Result<Arc<GpuBvh>> {
+            if bvh.is_none() {
+                bvh = Some(upload_bvh(device, scene)?);
+            }
+            Ok(Arc::clone(bvh.as_ref().expect("uploaded")))
+        };
+        if let Some(device) = device.filter(|d| settings.ray_device.on_gpu(d)) {
+            match upload(device).and_then(|bvh| GpuRays::new(device, bvh)) {
+                Ok(pass) => gather.gpu_rays = Some(pass),
+                Err(e) => {
+                    gpu_refused = Some(format!(
+                        "the GPU cannot trace the first-hit rays ({e}); the CPU did"
+                    ))
                 }
             }
         }
-        if let Some(device) = device.filter(|d| on_gpu(d)) {
-            match GpuDirect::new(device, scene) {
+        if let Some(device) = device.filter(|d| settings.direct_light.on_gpu(d)) {
+            match upload(device).and_then(|bvh| GpuDirect::new(device, bvh)) {
                 Ok(gpu) => gather.gpu_direct = Some(gpu),
                 Err(e) => {
                     gpu_refused = Some(format!(
@@ -580,21 +587,6 @@ impl<'a> FinalGather<'a> {
         self.gather.hemisphere_rays.any()
     }
 
-    /// Whether the hemisphere rays are traced on the GPU (and the GPU has
-    /// not failed at them).
-    pub fn hemisphere_rays_on_gpu(&self) -> bool {
-        // The pass is made only where the rays gather.
-        let working = |pass: &Mutex<Option<FirstHitPass>>| pass.lock().is_ok_and(|p| p.is_some());
-        self.gather.gpu_rays.as_ref().is_some_and(working)
-    }
-
-    /// The hemisphere rays the GPU has traced so far.
-    pub fn hemisphere_rays_traced_on_gpu(&self) -> u64 {
-        let traced =
-            |pass: &Mutex<Option<FirstHitPass>>| pass.lock().ok()?.as_ref().map(|p| p.traced);
-        self.gather.gpu_rays.as_ref().and_then(traced).unwrap_or(0)
-    }
-
     /// How many points so far took their reflected light from the
     /// element centres' cache, and how many gathered it themselves (both
     /// 0 without a cache).
@@ -688,6 +680,7 @@ mod clusters;
 pub mod display;
 mod exposure;
 mod gpu_direct;
+mod gpu_rays;
 mod hemisphere_rays;
 mod links;
 mod lit_samples;

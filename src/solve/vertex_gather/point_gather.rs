@@ -6,7 +6,7 @@
 
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -14,6 +14,7 @@ use rayon::prelude::*;
 use super::clusters::Clusters;
 use super::exposure;
 use super::gpu_direct::GpuDirect;
+use super::gpu_rays::GpuRays;
 use super::hemisphere_rays::HemisphereRays;
 use super::links::{Links, LINKS_BUDGET};
 use super::lit_samples::{DirectMeans, Emitters, POINT_RAYS};
@@ -26,7 +27,6 @@ use super::{
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
 use crate::geom::{nearest_in_polygon, tangent_frame};
-use crate::gpu::rays::FirstHitPass;
 use crate::scene::Scene;
 use crate::solve::hierarchy::ShooterTree;
 use crate::trace::{self, TracedMap};
@@ -65,9 +65,9 @@ pub(super) struct Gather<'a> {
     pub(super) direct_scale: Vec3,
     /// The patches whose light hemisphere rays gather.
     pub(super) hemisphere_rays: HemisphereRays,
-    /// The GPU pass that traces the hemisphere rays, when asked for
-    /// (`None` inside after a failure: the CPU then traces them).
-    pub(super) gpu_rays: Option<Mutex<Option<FirstHitPass>>>,
+    /// The GPU pass that traces the first-hit rays (the hemisphere
+    /// rays, the camera rays), when asked for.
+    pub(super) gpu_rays: Option<GpuRays>,
 }
 
 /// What is known of a point's light before it gathers: its direct light
@@ -213,7 +213,7 @@ impl Gather<'_> {
                 Some(gpu) if direct => {
                     gpu.direct(first_stream as usize + first, chunk, emitter_rays)
                 }
-                _ if !direct && self.gpu_rays.is_some() => {
+                _ if !direct && self.hemisphere_rays_on_gpu() => {
                     self.reflected_on_gpu(chunk, stream + first as u64)
                 }
                 _ => None,
