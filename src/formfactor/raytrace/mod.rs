@@ -85,12 +85,14 @@ use super::sampling::{grid, Pcg32, Sampler, Shooter};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
+mod bundle;
 pub mod flat_bvh;
 mod occluders;
 mod source;
 #[cfg(test)]
 mod tests;
 
+pub use bundle::RayBundle;
 pub use occluders::Occluders;
 use source::source_share;
 

@@ -232,7 +232,7 @@ pub(crate) fn hits(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> bool {
 /// The ray parameter `t` where `a + t d` meets the triangle (edges
 /// inclusive), if it lies strictly inside (tmin, tmax).
 #[inline]
-fn hit_distance(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
+pub(super) fn hit_distance(tri: &Tri, a: Vec3, d: Vec3, tmin: f32, tmax: f32) -> Option<f32> {
     let p = d.cross(tri.e2);
     let det = tri.e1.dot(p);
     if det == 0.0 || !det.is_finite() {

@@ -8,7 +8,7 @@ use super::{
     coverage_samples, direct_samples, silhouettes_refined, CameraRays, Groups, SILHOUETTE_COVERAGE,
     SILHOUETTE_DIRECT,
 };
-use crate::formfactor::raytrace::Occluders;
+use crate::formfactor::raytrace::{Occluders, RayBundle};
 use crate::render::{nested_pixel_samples, pixel_samples};
 use crate::scene::{Camera, Scene};
 use crate::solve::vertex_gather::FinalGather;
@@ -63,6 +63,10 @@ impl CameraRayTracer for FinalGather<'_> {
         self.rays_on_gpu()
     }
 }
+
+/// A pixel casting at least this many rays at once walks the CPU's
+/// hierarchy once for all of them ([`RayBundle`]).
+const BUNDLE: usize = 32;
 
 /// Camera rays traced at once: a GPU submission's worth.
 const BATCH: usize = 1 << 17;
@@ -160,9 +164,21 @@ impl<'a> Caster<'a> {
                         .zip(batch)
                         .for_each(|(list, &(p, offsets))| {
                             let (x, y) = ((p % w) as f32, (p / w) as f32);
-                            list.extend(offsets.iter().map(|&(sx, sy)| {
-                                let d = rays.direction(x + sx, y + sy);
-                                front(scene, eye, d, occluders.first_hit(eye, d))
+                            let direction = |(sx, sy): (f32, f32)| rays.direction(x + sx, y + sy);
+                            // Many rays through one pixel: the hierarchy
+                            // walked once for all of them.
+                            let candidates = (offsets.len() >= BUNDLE).then(|| {
+                                let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)];
+                                RayBundle::new(occluders, eye, &corners.map(direction))
+                                    .candidates(occluders)
+                            });
+                            list.extend(offsets.iter().map(|&offset| {
+                                let d = direction(offset);
+                                let met = match &candidates {
+                                    Some(among) => occluders.first_hit_among(among, d),
+                                    None => occluders.first_hit(eye, d),
+                                };
+                                front(scene, eye, d, met)
                             }));
                         });
                 }
