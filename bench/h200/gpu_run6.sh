@@ -14,8 +14,8 @@
 #   mkdir -p .dev && cp target/release/vkrad .dev/ && cp "$(ls -t target/release/deps/it-* | grep -v '\.d$' | head -1)" .dev/it
 #   strip .dev/vkrad .dev/it
 # command: bash bench/h200/gpu_run6.sh
-# It ran in 58 s here on lavapipe (2 cores; run with GPU=lavapipe there
-# to skip the driver checks); its log and reports come back under $OUT.
+# It ran in 58 s here on lavapipe (2 cores, with GPU=lavapipe, which
+# skips the driver checks); its log and reports come back under $OUT.
 exec > >(tee -a "$OUT/log6.txt") 2>&1
 stamp() { echo "=== [${SECONDS} s] $*"; }
 stamp setup

@@ -94,13 +94,22 @@ impl RayBundle {
     /// leaves' boxes reach into the pyramid: every triangle a ray of the
     /// bundle can meet is among them.
     pub fn candidates(&self, occluders: &Occluders) -> Candidates {
+        self.candidates_up_to(occluders, usize::MAX)
+            .expect("no limit")
+    }
+
+    /// [`RayBundle::candidates`] where there are at most `limit`, else
+    /// `None` (left as soon as found): past some count, testing each ray
+    /// against every candidate costs more than its own traversal (a
+    /// finely tessellated surface far from the eye).
+    pub fn candidates_up_to(&self, occluders: &Occluders, limit: usize) -> Option<Candidates> {
         let mut out = Candidates {
             apex: self.apex,
             axis: self.axis,
             tris: Vec::new(),
         };
         let Some(bvh) = &occluders.bvh else {
-            return out;
+            return Some(out);
         };
         let mut stack = vec![0u32];
         while let Some(n) = stack.pop() {
@@ -128,13 +137,16 @@ impl RayBundle {
                             out.tris.push((nearest, i));
                         }
                     }
+                    if out.tris.len() > limit {
+                        return None;
+                    }
                 } else {
                     stack.push(node.child_node_index(child));
                 }
             }
         }
         out.tris.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
-        out
+        Some(out)
     }
 }
 
@@ -223,6 +235,17 @@ mod tests {
             }
             println!("{name}: {met} of {rays} rays met a patch, {candidates} candidates");
             assert!(met > rays / 4, "{name}: the view missed the scene");
+            // A limit under a bundle's count gives up; at its count, the same.
+            let corners = [forward, forward + 0.1 * right, forward + 0.1 * (right + up)];
+            let wide = RayBundle::new(&occluders, eye, &corners);
+            let all = wide.candidates(&occluders);
+            assert!(all.len() > 1, "{name}: a wide bundle meets little");
+            assert!(wide.candidates_up_to(&occluders, all.len() - 1).is_none());
+            assert_eq!(
+                wide.candidates_up_to(&occluders, all.len())
+                    .map(|c| c.len()),
+                Some(all.len())
+            );
             let per_bundle = candidates as f32 / 2_000.0;
             assert!(
                 per_bundle < occluders.triangle_count() as f32 / 4.0,

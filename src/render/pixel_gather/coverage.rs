@@ -70,6 +70,11 @@ impl CameraRayTracer for FinalGather<'_> {
 /// pixel) 0.88 -> 0.77 s, `rfield` at 256x256 the same; 4 no better.
 const BUNDLE: usize = 16;
 
+/// ... unless it holds more triangles than this (a finely tessellated
+/// surface far away): each ray then walks the hierarchy alone. On
+/// `rfield` a pixel's bundle holds 19 on average.
+const BUNDLE_MOST: usize = 64;
+
 /// Camera rays traced at once: a GPU submission's worth.
 const BATCH: usize = 1 << 17;
 
@@ -172,11 +177,11 @@ impl<'a> Caster<'a> {
                             let candidates = (offsets.len() >= BUNDLE).then(|| {
                                 let corners = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)];
                                 RayBundle::new(occluders, eye, &corners.map(direction))
-                                    .candidates(occluders)
+                                    .candidates_up_to(occluders, BUNDLE_MOST)
                             });
                             list.extend(offsets.iter().map(|&offset| {
                                 let d = direction(offset);
-                                let met = match &candidates {
+                                let met = match candidates.as_ref().and_then(Option::as_ref) {
                                     Some(among) => occluders.first_hit_among(among, d),
                                     None => occluders.first_hit(eye, d),
                                 };
