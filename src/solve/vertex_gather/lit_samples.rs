@@ -58,19 +58,28 @@ pub(super) struct DirectMeans {
     pub(super) even: Vec<bool>,
     /// The emitters' area-weighted light they were taken with.
     power: Vec3,
-    /// Per element, its exposed points and the direct light at each.
-    samples: Vec<Vec<(Vec3, Vec3)>>,
+    /// Every element's exposed points and the direct light at each, one
+    /// list (a landing reads one element's: contiguous, not a heap block
+    /// each), element `e`'s from `start[e]` to `start[e + 1]`.
+    points: Vec<Vec3>,
+    light: Vec<Vec3>,
+    start: Vec<u32>,
 }
 
 impl DirectMeans {
     /// The direct light at point `y` of element `e`: at the nearest of
     /// its exposed points (`None` when it has none).
     pub(super) fn at(&self, e: u32, y: Vec3) -> Option<Vec3> {
-        self.samples
-            .get(e as usize)?
-            .iter()
-            .min_by(|a, b| a.0.distance_squared(y).total_cmp(&b.0.distance_squared(y)))
-            .map(|&(_, d)| d)
+        let e = e as usize;
+        let range = *self.start.get(e)? as usize..*self.start.get(e + 1)? as usize;
+        let (mut best, mut nearest) = (None, f32::INFINITY);
+        for (i, p) in self.points[range.clone()].iter().enumerate() {
+            let d = p.distance_squared(y);
+            if d < nearest {
+                (best, nearest) = (Some(range.start + i), d);
+            }
+        }
+        best.map(|i| self.light[i])
     }
 }
 
@@ -207,11 +216,19 @@ impl Gather<'_> {
                 is_even(lo, levels.fold(0.0, f32::max), self.settings.uniformity)
             })
             .collect();
+        let mut start = Vec::with_capacity(samples.len() + 1);
+        start.push(0);
+        for s in &samples {
+            start.push(start.last().copied().unwrap_or(0) + s.len() as u32);
+        }
+        let (points, light) = samples.into_iter().flatten().unzip();
         DirectMeans {
             mean,
             even,
             power: self.emitted_power(),
-            samples,
+            points,
+            light,
+            start,
         }
     }
 
