@@ -278,8 +278,11 @@ pub(crate) struct RenderArgs {
     /// Show the solver's own vertex values (neighbouring elements averaged,
     /// or the CPU methods' per-vertex form factors) instead of the final
     /// gather: every vertex's radiosity gathered from the solved elements
-    /// with exact form factors and ray-traced visibility. Faster; biased
-    /// at corners, contacts and shadow edges.
+    /// with exact form factors and ray-traced visibility. Biased at
+    /// corners, contacts and shadow edges. Faster on scenes of a few
+    /// patches; on many, the solve must then shoot the light away on its
+    /// own (--stop-error), which takes thousands of shots (rfield: over
+    /// 20 minutes on 2 cores): bound it with --max-shots or --converge.
     #[arg(long)]
     pub(crate) no_final_gather: bool,
     /// Jacobi passes of the final gather at the element centres before the

@@ -500,3 +500,28 @@ fn the_export_is_the_gathered_display_mesh() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Regression: `--no-final-gather` on a scene of many patches ran for over
+/// 20 minutes (rfield) while its help said it was faster: the solve must
+/// then shoot the light away on its own. vkrad says so, and how to bound
+/// it; on a scene of a few patches it says nothing.
+#[test]
+fn no_final_gather_on_many_patches_warns_how_to_bound_the_solve() {
+    let dir = temp_dir("no-gather");
+    for (scene, warns) in [("vise", true), ("simple", false)] {
+        let args = [
+            scene,
+            "-o",
+            "x.png",
+            "--size",
+            "16x16",
+            "--no-final-gather",
+            "--max-shots",
+            "2",
+        ];
+        let out = vkrad(&args, &dir);
+        assert!(out.status.success(), "{scene}:\n{}", stderr(&out));
+        let said = stderr(&out).contains("--max-shots N or --converge F bounds it");
+        assert_eq!(said, warns, "{scene}:\n{}", stderr(&out));
+    }
+}
