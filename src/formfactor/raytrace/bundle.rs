@@ -91,14 +91,9 @@ impl RayBundle {
     }
 
     /// The triangles of `occluders` (their places in its list) whose
-    /// leaves' boxes reach into the pyramid: every triangle a ray of the
-    /// bundle can meet is among them.
-    pub fn candidates(&self, occluders: &Occluders) -> Candidates {
-        self.candidates_up_to(occluders, usize::MAX)
-            .expect("no limit")
-    }
-
-    /// [`RayBundle::candidates`] where there are at most `limit`, else
+    /// leaves' boxes reach into the pyramid, where there are at most
+    /// `limit` (every triangle a ray of the bundle can meet is among
+    /// them), else
     /// `None` (left as soon as found): past some count, testing each ray
     /// against every candidate costs more than its own traversal (a
     /// finely tessellated surface far from the eye).
@@ -152,7 +147,7 @@ impl RayBundle {
 
 impl Occluders {
     /// [`Occluders::first_hit`] for a ray of a bundle from its apex,
-    /// whose [`RayBundle::candidates`] are `candidates`: the nearest of
+    /// whose [`RayBundle::candidates_up_to`] are `candidates`: the nearest of
     /// them the ray `apex + t d`, `t > 0`, meets, `(t, patch)`. A
     /// triangle that starts further along the axis than the nearest hit
     /// so far cannot be nearer, nor can those after it.
@@ -211,7 +206,7 @@ mod tests {
                     at(0.0, pixel),
                 ];
                 let bundle = RayBundle::new(&occluders, eye, &corners);
-                let among = bundle.candidates(&occluders);
+                let among = bundle.candidates_up_to(&occluders, usize::MAX).unwrap();
                 candidates += among.len();
                 for _ in 0..8 {
                     let d = at(pixel * rng.next_f32(), pixel * rng.next_f32());
@@ -238,7 +233,7 @@ mod tests {
             // A limit under a bundle's count gives up; at its count, the same.
             let corners = [forward, forward + 0.1 * right, forward + 0.1 * (right + up)];
             let wide = RayBundle::new(&occluders, eye, &corners);
-            let all = wide.candidates(&occluders);
+            let all = wide.candidates_up_to(&occluders, usize::MAX).unwrap();
             assert!(all.len() > 1, "{name}: a wide bundle meets little");
             assert!(wide.candidates_up_to(&occluders, all.len() - 1).is_none());
             assert_eq!(

@@ -260,16 +260,13 @@ pub(super) fn cast_pixels(
     // samples, a net of their own: no rays of their own.
     let across = (d * SILHOUETTE_DIRECT).min(n as u32) as usize;
     let caster = Caster::new(scene, tracer, camera, (w, h));
-    let cast_into = |requests: &[(u32, &[(f32, f32)])], lists: &mut [Vec<Hit>]| {
-        caster.cast_into(requests, lists)
-    };
-    // ... to the lists of `hits` the requests' pixels index.
+    // Each request's hits, appended to the list of `hits` its pixel indexes.
     let extend = |requests: &[(u32, &[(f32, f32)])], hits: &mut [Vec<Hit>]| {
         let mut lists: Vec<Vec<Hit>> = requests
             .iter()
             .map(|&(p, _)| std::mem::take(&mut hits[p as usize]))
             .collect();
-        cast_into(requests, &mut lists);
+        caster.cast_into(requests, &mut lists);
         for (&(p, _), list) in requests.iter().zip(lists) {
             hits[p as usize] = list;
         }
@@ -304,7 +301,7 @@ pub(super) fn cast_pixels(
     // A first few samples a pixel, and the one surface they show, if one.
     let all: Vec<(u32, &[(f32, f32)])> = (0..w * h).map(|p| (p, &coverage[..few])).collect();
     let mut hits: Vec<Vec<Hit>> = (0..pixels).map(|_| Vec::with_capacity(few)).collect();
-    cast_into(&all, &mut hits);
+    caster.cast_into(&all, &mut hits);
     let alone: Vec<Option<Shows>> = hits.par_iter().map(|h| one_surface(h)).collect();
     let neighbours = |p: usize| {
         let (x, y) = ((p as u32 % w) as i64, (p as u32 / w) as i64);
@@ -376,7 +373,7 @@ pub(super) fn cast_pixels(
         .map(|p| (p, &direct[..]))
         .collect();
     let mut direct_hits: Vec<Vec<Hit>> = requests.iter().map(|_| Vec::new()).collect();
-    cast_into(&requests, &mut direct_hits);
+    caster.cast_into(&requests, &mut direct_hits);
     for (&(p, _), hits) in requests.iter().zip(direct_hits) {
         out[p as usize].direct = hits.into_iter().flatten().collect();
     }
