@@ -4,6 +4,7 @@
 use std::collections::HashMap;
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 
 use super::Mesh;
 use crate::error::Error;
@@ -30,6 +31,9 @@ const MIN_AREA: f64 = 1e-9;
 const STORED_AREA_TOL: f64 = 1e-3;
 /// Above this many cells per edge query, scan the patch's vertices instead.
 const MAX_QUERY_CELLS: i64 = 64;
+/// A patch of at most this many vertices is checked pair by pair: a grid
+/// costs more than it saves there (a letter's side is one quad).
+const BRUTE_FORCE_VERTICES: usize = 32;
 
 fn d(v: Vec3) -> DVec3 {
     v.as_dvec3()
@@ -136,111 +140,146 @@ impl Mesh {
         self.first_defect(scene).map_err(Error::Mesh)
     }
 
-    /// The first failure of [`Mesh::sanity_check`], described.
+    /// The first failure of [`Mesh::sanity_check`], described. Patches
+    /// are checked in parallel, each on its own; which vertex belongs to
+    /// which patch is checked after, in patch order, up to the first
+    /// patch that failed on its own.
     fn first_defect(&self, scene: &Scene) -> Result<(), String> {
         self.check_ranges(scene)?;
         let extent = f64::from(scene.extent());
         let plane_tol = PLANE_TOL * if extent.is_finite() { extent } else { 0.0 };
-        let mut owner: Vec<Option<u32>> = vec![None; self.vertices.len()];
-        let mut used: Vec<u32> = Vec::new();
-        let mut points: Vec<DVec3> = Vec::with_capacity(4);
-        for (p, patch) in scene.patches.iter().enumerate() {
-            if patch.vertices.len() < 3 {
-                return Err(format!("patch {p} has {} vertices", patch.vertices.len()));
-            }
-            let range = self.patch_elements[p].clone();
-            let normal = d(patch.normal);
-            let origin = d(patch.vertices[0]);
-            let patch_area = f64::from(patch.area);
-            let (lo, hi) = patch
-                .vertices
-                .iter()
-                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(d(*v)), hi.max(d(*v)))
-                });
-            let size = (hi - lo).length();
-            let mut area_sum = 0.0;
-            used.clear();
+        let own = (0..scene.patches.len())
+            .into_par_iter()
+            .map(|p| self.patch_defect(scene, p, plane_tol).err().map(|e| (p, e)))
+            .find_first(Option::is_some)
+            .flatten();
+        let checked = own.as_ref().map_or(scene.patches.len(), |(p, _)| *p);
+        let shared = self.shared_vertex(checked);
+        match (own, shared) {
+            (Some((p, e)), Some((q, _))) if p <= q => Err(e),
+            (_, Some((_, e))) | (Some((_, e)), None) => Err(e),
+            (None, None) => Ok(()),
+        }
+    }
+
+    /// The first vertex used by two patches among the first `patches`
+    /// (whose corners are known to be vertices): its patch and a
+    /// description.
+    fn shared_vertex(&self, patches: usize) -> Option<(usize, String)> {
+        let mut owner: Vec<u32> = vec![u32::MAX; self.vertices.len()];
+        for (p, range) in self.patch_elements[..patches].iter().enumerate() {
             for e in range.clone() {
-                let el = &self.elements[e as usize];
-                let name = format!("element {e} (patch {p})");
-                if !(3..=4).contains(&el.corner_count) {
-                    return Err(format!("{name} has {} corners", el.corner_count));
-                }
-                let corners = el.corners();
-                points.clear();
-                for (k, &v) in corners.iter().enumerate() {
-                    if v as usize >= self.vertices.len() {
-                        return Err(format!(
-                            "{name} corner {k} is vertex {v}, but there are only {}",
-                            self.vertices.len()
-                        ));
-                    }
-                    if corners[..k].contains(&v) {
-                        return Err(format!("{name} uses vertex {v} twice"));
-                    }
-                    points.push(d(self.vertices[v as usize]));
-                }
-                let area_vec = 0.5 * newell(&points);
-                let area = area_vec.length();
-                if area <= MIN_AREA * patch_area {
-                    return Err(format!("{name} has zero area ({area:e})"));
-                }
-                for (k, q) in points.iter().enumerate() {
-                    let dist = (*q - origin).dot(normal).abs();
-                    if dist >= plane_tol {
-                        return Err(format!(
-                            "{name} corner {k} (vertex {}) is {dist:e} off its patch's plane",
-                            corners[k]
-                        ));
-                    }
-                }
-                if area_vec.dot(normal) <= 0.0 {
-                    return Err(format!(
-                        "{name} has the wrong orientation (faces away from its patch normal)"
-                    ));
-                }
-                let stored = f64::from(el.area);
-                if (stored - area).abs() > STORED_AREA_TOL * area {
-                    return Err(format!(
-                        "{name} stores area {stored:e}, its corners give {area:e}"
-                    ));
-                }
-                area_sum += stored;
-                for &v in corners {
+                for &v in self.elements[e as usize].corners() {
                     match owner[v as usize] {
-                        None => {
-                            owner[v as usize] = Some(p as u32);
-                            used.push(v);
-                        }
-                        Some(o) if o as usize == p => {}
-                        Some(o) => {
-                            return Err(format!(
-                                "vertex {v} is shared by patches {o} and {p} ({name})"
+                        u32::MAX => owner[v as usize] = p as u32,
+                        o if o as usize == p => {}
+                        o => {
+                            return Some((
+                                p,
+                                format!(
+                                    "vertex {v} is shared by patches {o} and {p} (element {e} (patch {p}))"
+                                ),
                             ))
                         }
                     }
                 }
             }
-            // Each boundary vertex is stored to an f32 step of where it
-            // belongs: a thin patch far from the origin (a letter's side at
-            // x = 130) moves by that step times its perimeter, which can
-            // exceed AREA_SUM_TOL of its area.
-            let perimeter: f64 = (0..patch.vertices.len())
-                .map(|k| {
-                    d(patch.vertices[k]).distance(d(patch.vertices[(k + 1) % patch.vertices.len()]))
-                })
-                .sum();
-            let f32_step = f64::from(f32::EPSILON) * lo.abs().max(hi.abs()).max_element();
-            let area_tol = (AREA_SUM_TOL * patch_area).max(f32_step * perimeter);
-            if (area_sum - patch_area).abs() > area_tol {
+        }
+        None
+    }
+
+    /// Every check of [`Mesh::sanity_check`] that concerns patch `p`
+    /// alone.
+    fn patch_defect(&self, scene: &Scene, p: usize, plane_tol: f64) -> Result<(), String> {
+        let patch = &scene.patches[p];
+        if patch.vertices.len() < 3 {
+            return Err(format!("patch {p} has {} vertices", patch.vertices.len()));
+        }
+        let range = self.patch_elements[p].clone();
+        let normal = d(patch.normal);
+        let origin = d(patch.vertices[0]);
+        let patch_area = f64::from(patch.area);
+        let (lo, hi) = patch
+            .vertices
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(d(*v)), hi.max(d(*v)))
+            });
+        let size = (hi - lo).length();
+        let mut area_sum = 0.0;
+        let mut used: Vec<u32> = Vec::new();
+        let mut points: Vec<DVec3> = Vec::with_capacity(4);
+        for e in range.clone() {
+            let el = &self.elements[e as usize];
+            let name = || format!("element {e} (patch {p})");
+            if !(3..=4).contains(&el.corner_count) {
+                return Err(format!("{} has {} corners", name(), el.corner_count));
+            }
+            let corners = el.corners();
+            points.clear();
+            for (k, &v) in corners.iter().enumerate() {
+                if v as usize >= self.vertices.len() {
+                    return Err(format!(
+                        "{} corner {k} is vertex {v}, but there are only {}",
+                        name(),
+                        self.vertices.len()
+                    ));
+                }
+                if corners[..k].contains(&v) {
+                    return Err(format!("{} uses vertex {v} twice", name()));
+                }
+                points.push(d(self.vertices[v as usize]));
+            }
+            let area_vec = 0.5 * newell(&points);
+            let area = area_vec.length();
+            if area <= MIN_AREA * patch_area {
+                return Err(format!("{} has zero area ({area:e})", name()));
+            }
+            for (k, q) in points.iter().enumerate() {
+                let dist = (*q - origin).dot(normal).abs();
+                if dist >= plane_tol {
+                    return Err(format!(
+                        "{} corner {k} (vertex {}) is {dist:e} off its patch's plane",
+                        name(),
+                        corners[k]
+                    ));
+                }
+            }
+            if area_vec.dot(normal) <= 0.0 {
                 return Err(format!(
-                    "patch {p}: element areas sum to {area_sum:e}, the patch area is {patch_area:e}"
+                    "{} has the wrong orientation (faces away from its patch normal)",
+                    name()
                 ));
             }
-            self.check_patch_topology(p, range, &used, size)?;
+            let stored = f64::from(el.area);
+            if (stored - area).abs() > STORED_AREA_TOL * area {
+                return Err(format!(
+                    "{} stores area {stored:e}, its corners give {area:e}",
+                    name()
+                ));
+            }
+            area_sum += stored;
+            used.extend_from_slice(corners);
         }
-        Ok(())
+        used.sort_unstable();
+        used.dedup();
+        // Each boundary vertex is stored to an f32 step of where it
+        // belongs: a thin patch far from the origin (a letter's side at
+        // x = 130) moves by that step times its perimeter, which can
+        // exceed AREA_SUM_TOL of its area.
+        let perimeter: f64 = (0..patch.vertices.len())
+            .map(|k| {
+                d(patch.vertices[k]).distance(d(patch.vertices[(k + 1) % patch.vertices.len()]))
+            })
+            .sum();
+        let f32_step = f64::from(f32::EPSILON) * lo.abs().max(hi.abs()).max_element();
+        let area_tol = (AREA_SUM_TOL * patch_area).max(f32_step * perimeter);
+        if (area_sum - patch_area).abs() > area_tol {
+            return Err(format!(
+                "patch {p}: element areas sum to {area_sum:e}, the patch area is {patch_area:e}"
+            ));
+        }
+        self.check_patch_topology(p, range, &used, size)
     }
 
     fn check_ranges(&self, scene: &Scene) -> Result<(), String> {
@@ -298,34 +337,33 @@ impl Mesh {
         let dup_tol = DUPLICATE_TOL * size;
         let edge_tol = ON_EDGE_TOL * size;
         let elements = &self.elements[range.start as usize..range.end as usize];
-        // Cells of about the median edge: discontinuity meshes mix long
-        // edges in open regions with dense clusters along shadow lines, and
-        // cells as big as the longest edge would put whole clusters in one.
-        let mut lengths: Vec<f64> = elements
-            .iter()
-            .flat_map(|el| {
-                let c = el.corners();
-                (0..c.len()).map(move |k| (c[k], c[(k + 1) % c.len()]))
-            })
-            .map(|(a, b)| d(self.vertices[a as usize]).distance(d(self.vertices[b as usize])))
-            .collect();
-        let median = if lengths.is_empty() {
-            0.0
-        } else {
+        let grid = (used.len() > BRUTE_FORCE_VERTICES).then(|| {
+            // Cells of about the median edge: discontinuity meshes mix
+            // long edges in open regions with dense clusters along shadow
+            // lines, and cells as big as the longest edge would put whole
+            // clusters in one.
+            let mut lengths: Vec<f64> = elements
+                .iter()
+                .flat_map(|el| {
+                    let c = el.corners();
+                    (0..c.len()).map(move |k| (c[k], c[(k + 1) % c.len()]))
+                })
+                .map(|(a, b)| d(self.vertices[a as usize]).distance(d(self.vertices[b as usize])))
+                .collect();
             let mid = lengths.len() / 2;
-            *lengths.select_nth_unstable_by(mid, f64::total_cmp).1
-        };
-        let cell = median.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
-        let grid = Grid::new(cell, used, &self.vertices);
-        let (mut near, mut keys) = (Vec::new(), Vec::new());
+            let median = *lengths.select_nth_unstable_by(mid, f64::total_cmp).1;
+            let cell = median.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
+            Grid::new(cell, used, &self.vertices)
+        });
+        let (mut found, mut keys) = (Vec::new(), Vec::new());
 
         for &v in used {
             let q = d(self.vertices[v as usize]);
             let slack = DVec3::splat(dup_tol);
-            if !grid.query(q - slack, q + slack, &mut near) {
-                near.clear();
-                near.extend_from_slice(used);
-            }
+            let in_grid = grid
+                .as_ref()
+                .is_some_and(|grid| grid.query(q - slack, q + slack, &mut found));
+            let near = if in_grid { &found[..] } else { used };
             if let Some(&w) = near
                 .iter()
                 .find(|&&w| w != v && d(self.vertices[w as usize]).distance(q) <= dup_tol)
@@ -344,14 +382,20 @@ impl Mesh {
                 let (a, b) = (d(self.vertices[ia as usize]), d(self.vertices[ib as usize]));
                 // edge_tol <= cell / 4: every vertex that could make a
                 // T-junction is in the cells along the edge.
-                grid.query_segment(a, b, &mut keys, &mut near);
+                let near = match &grid {
+                    Some(grid) => {
+                        grid.query_segment(a, b, &mut keys, &mut found);
+                        &found[..]
+                    }
+                    None => used,
+                };
                 let ab = b - a;
                 let len = ab.length();
                 if len <= 0.0 {
                     continue;
                 }
                 let dir = ab / len;
-                for &w in &near {
+                for &w in near {
                     if w == ia || w == ib {
                         continue;
                     }
@@ -786,6 +830,38 @@ mod tests {
         mesh.elements.push(quad([8, 6, 4, 3], &mesh.vertices, 0));
         mesh.patch_elements = one_range(4);
         mesh.sanity_check(&s).expect("no T-junction any more");
+    }
+
+    #[test]
+    fn a_large_patch_is_checked_on_its_grid_and_still_caught() {
+        // 8 x 8 quads: 81 vertices, over BRUTE_FORCE_VERTICES, so the
+        // queries go through the patch's grid.
+        let s = scene(&[&unit_square()]);
+        let sane = uniform(&s, 1.0 / 8.0);
+        assert!(sane.vertices.len() > super::BRUTE_FORCE_VERTICES);
+        sane.sanity_check(&s).expect("sane");
+        // A T-junction: element 0 split at the middle of its edge c1-c2,
+        // which its neighbour keeps whole.
+        let mut tee = sane.clone();
+        let c = tee.elements[0].corners;
+        let m = tee.vertices.len() as u32;
+        tee.vertices
+            .push(0.5 * (tee.vertices[c[1] as usize] + tee.vertices[c[2] as usize]));
+        let mut tri = quad([m, c[2], c[3], c[3]], &tee.vertices, 0);
+        tri.corner_count = 3;
+        let pts = [m, c[2], c[3]].map(|v| tee.vertices[v as usize]);
+        (tri.area, tri.centre) = crate::mesh::uniform::polygon_area_centroid(&pts);
+        tee.elements[0] = quad([c[0], c[1], m, c[3]], &tee.vertices, 0);
+        tee.elements.push(tri);
+        tee.patch_elements = one_range(tee.elements.len() as u32);
+        fails_with(&s, &tee, "T-junction");
+        // A duplicate: the last element's first corner moved onto a copy.
+        let mut dup = sane.clone();
+        let last = dup.elements.len() - 1;
+        let v = dup.elements[last].corners[0];
+        dup.vertices.push(dup.vertices[v as usize]);
+        dup.elements[last].corners[0] = dup.vertices.len() as u32 - 1;
+        fails_with(&s, &dup, "duplicates");
     }
 
     #[test]
