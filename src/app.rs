@@ -36,7 +36,7 @@ mod report;
 pub use memory::{
     peak_resident_bytes, run_estimate, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog,
 };
-pub use report::{write_report, Report};
+pub use report::{write_report, GatherFacts, Report};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -505,11 +505,7 @@ pub fn run_scene(
         },
         ..g
     });
-    let mut reflected_reuse = (0, 0);
-    let mut direct_on_gpu = false;
-    let mut hemisphere_rays = None;
-    let mut camera_rays_on_gpu = None;
-    let mut centres_gathered = 0;
+    let mut gather_facts = GatherFacts::default();
     let mut pixel_image = None;
     let shown = match &final_gather {
         Some(settings) if interrupted.is_none() => {
@@ -581,13 +577,7 @@ pub fn run_scene(
                                 None => Shaded::Nothing,
                             },
                         };
-                        reflected_reuse = gather.reflected_reuse();
-                        direct_on_gpu = gather.direct_on_gpu();
-                        hemisphere_rays = gather
-                            .by_hemisphere_rays()
-                            .then(|| gather.hemisphere_rays_on_gpu());
-                        camera_rays_on_gpu = at_pixels.then(|| gather.rays_on_gpu());
-                        centres_gathered = gather.centres_gathered();
+                        gather_facts = GatherFacts::of(&gather, at_pixels);
                         warnings.extend(gather.gpu_warning());
                         shaded
                     }
@@ -690,11 +680,7 @@ pub fn run_scene(
         gpu_times,
         interrupted,
         gather_passes: final_gather.map(|g| g.source_passes),
-        reflected_reuse,
-        direct_on_gpu,
-        hemisphere_rays,
-        camera_rays_on_gpu,
-        centres_gathered,
+        gather: gather_facts,
         gathered_at_pixels,
     })
 }

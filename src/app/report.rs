@@ -10,6 +10,7 @@ use crate::mesh::build::MeshReport;
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::Scene;
+use crate::solve::vertex_gather::FinalGather;
 use crate::solve::Solution;
 
 /// What a run did, for the summary and for tests.
@@ -65,6 +66,19 @@ pub struct Report {
     /// The Jacobi passes the final gather ran (at most the job's; fewer
     /// where the solve's residual needed fewer).
     pub gather_passes: Option<usize>,
+    /// What the final gather did, as it says of itself.
+    pub gather: GatherFacts,
+    /// Where the image was gathered at its pixels
+    /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
+    /// vertex values: the points its reflected light and its direct light
+    /// were gathered at.
+    pub gathered_at_pixels: Option<(usize, usize)>,
+}
+
+/// What the final gather did, as it says of itself (all default without
+/// one).
+#[derive(Debug, Clone, Default)]
+pub struct GatherFacts {
     /// Display points that took the light reflected onto them from the
     /// element centres, and points that gathered it (`--reflected-reuse`).
     pub reflected_reuse: (usize, usize),
@@ -82,11 +96,26 @@ pub struct Report {
     /// Whether the image was gathered at its pixels, and then whether its
     /// camera rays were traced on the GPU (`--ray-device`).
     pub camera_rays_on_gpu: Option<bool>,
-    /// Where the image was gathered at its pixels
-    /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
-    /// vertex values: the points its reflected light and its direct light
-    /// were gathered at.
-    pub gathered_at_pixels: Option<(usize, usize)>,
+    /// The return ratio of the bounces added after the last Jacobi pass
+    /// (`solve::vertex_gather::tail`), where they were.
+    pub tail_ratio: Option<f64>,
+}
+
+impl GatherFacts {
+    /// What `gather` did; `at_pixels`: whether the image was gathered at
+    /// its pixels.
+    pub fn of(gather: &FinalGather, at_pixels: bool) -> Self {
+        GatherFacts {
+            reflected_reuse: gather.reflected_reuse(),
+            centres_gathered: gather.centres_gathered(),
+            direct_on_gpu: gather.direct_on_gpu(),
+            hemisphere_rays: gather
+                .by_hemisphere_rays()
+                .then(|| gather.hemisphere_rays_on_gpu()),
+            camera_rays_on_gpu: at_pixels.then(|| gather.rays_on_gpu()),
+            tail_ratio: gather.tail_ratio(),
+        }
+    }
 }
 
 impl Report {
@@ -154,15 +183,16 @@ impl Report {
             },
             "interrupted_in": self.interrupted,
             "gather_passes": self.gather_passes,
-            "reflected_reuse": { "reused": self.reflected_reuse.0, "gathered": self.reflected_reuse.1 },
-            "centres_gathered": self.centres_gathered,
-            "direct_light": if self.direct_on_gpu { "gpu" } else { "cpu" },
-            "hemisphere_rays": match self.hemisphere_rays {
+            "tail_ratio": self.gather.tail_ratio,
+            "reflected_reuse": { "reused": self.gather.reflected_reuse.0, "gathered": self.gather.reflected_reuse.1 },
+            "centres_gathered": self.gather.centres_gathered,
+            "direct_light": if self.gather.direct_on_gpu { "gpu" } else { "cpu" },
+            "hemisphere_rays": match self.gather.hemisphere_rays {
                 None => "none",
                 Some(true) => "gpu",
                 Some(false) => "cpu",
             },
-            "camera_rays": match self.camera_rays_on_gpu {
+            "camera_rays": match self.gather.camera_rays_on_gpu {
                 None => "none",
                 Some(true) => "gpu",
                 Some(false) => "cpu",

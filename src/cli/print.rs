@@ -95,7 +95,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         Some(n) => format!(", after {n} Jacobi passes at the element centres"),
         None => String::new(),
     };
-    if let (reused @ 1.., gathered) = r.reflected_reuse {
+    if let Some(ratio) = r.gather.tail_ratio {
+        passes += &format!(" and the bounces past them (each {ratio:.2} of the last)");
+    }
+    if let (reused @ 1.., gathered) = r.gather.reflected_reuse {
         passes += &format!(
             "; {:.0}% took their reflected light from the centres (--reflected-reuse)",
             100.0 * reused as f64 / (reused + gathered) as f64

@@ -118,11 +118,11 @@ fn small_elements_share_their_centres_gather_and_the_image_keeps_its_light() {
     let (shared, own) = (run_r(true), run_r(false));
     // Measured: 12,590 centres of 24,840.
     let elements = shared.mesh.elements.len();
-    assert_eq!(own.centres_gathered, elements);
+    assert_eq!(own.gather.centres_gathered, elements);
     assert!(
-        shared.centres_gathered > 0 && shared.centres_gathered * 5 < elements * 3,
+        shared.gather.centres_gathered > 0 && shared.gather.centres_gathered * 5 < elements * 3,
         "{} centres of {elements}",
-        shared.centres_gathered
+        shared.gather.centres_gathered
     );
     let lum = |p: &[f32; 3]| f64::from(p[0] + p[1] + p[2]);
     let (mut sq, mut sum) = (0.0f64, 0.0f64);

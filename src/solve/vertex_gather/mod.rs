@@ -33,7 +33,7 @@ use std::sync::{Arc, OnceLock};
 use glam::Vec3;
 
 use self::clusters::Clusters;
-use self::exposure::{exposed_parts, ExposedPart, EXPOSURE_GRID};
+use self::exposure::{exposed_parts, EXPOSURE_GRID};
 pub use self::gpu_direct::DirectLight;
 use self::gpu_direct::GpuDirect;
 use self::gpu_rays::{upload_bvh, GpuRays};
@@ -43,9 +43,10 @@ use self::links::Links;
 pub use self::links::LINKS_BUDGET;
 use self::lit_samples::Emitters;
 use self::point_gather::{Gather, Linking};
-use self::reflected_cache::{Record, ReflectedCache};
+use self::reflected_cache::{centre_records, ReflectedCache};
 use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
+use self::tail::Passes;
 pub use self::vertices::VertexCache;
 use super::hierarchy::ShooterTree;
 
@@ -297,6 +298,9 @@ pub struct FinalGather<'a> {
     /// The element centres it traced rays from (each once; fewer than
     /// the elements where they share, [`shared_centres`]).
     centres_gathered: usize,
+    /// The return ratio whose tail of bounces was added after the last
+    /// pass ([`tail`]), if one was.
+    tail_ratio: Option<f64>,
     /// The scene's smooth surfaces, found once for whoever asks first.
     surfaces: OnceLock<Vec<u32>>,
 }
@@ -499,6 +503,9 @@ impl<'a> FinalGather<'a> {
         gather
             .hemisphere_rays
             .set_rays((settings.hemisphere_rays / CENTRE_RAYS_SHARE).max(1));
+        // The bounces the last pass leaves out ([`tail`]).
+        let (mut history, mut tail_ratio) = (Passes::default(), None);
+        let areas: Vec<f32> = solved.elements.iter().map(|e| e.area).collect();
         for pass in 0..settings.source_passes {
             let linking = match pass {
                 _ if settings.retrace_passes => Linking::None,
@@ -521,6 +528,10 @@ impl<'a> FinalGather<'a> {
                 if part.share <= 0.0 {
                     *b = [0.0; 3];
                 }
+            }
+            history.push(&corrected);
+            if pass + 1 == settings.source_passes {
+                tail_ratio = history.add_tail(pass + 1, &mut corrected, &areas);
             }
             let lit = direct_means
                 .as_ref()
@@ -553,6 +564,7 @@ impl<'a> FinalGather<'a> {
             gather,
             gpu_refused,
             centres_gathered,
+            tail_ratio,
             surfaces,
         })
     }
@@ -587,9 +599,6 @@ impl<'a> FinalGather<'a> {
         self.gather.hemisphere_rays.any()
     }
 
-    /// How many points so far took their reflected light from the
-    /// element centres' cache, and how many gathered it themselves (both
-    /// 0 without a cache).
     /// Per patch, its smooth surface ([`Scene::smooth_surfaces`]),
     /// found once per gather.
     pub fn smooth_surfaces(&self) -> &[u32] {
@@ -602,6 +611,15 @@ impl<'a> FinalGather<'a> {
         self.centres_gathered
     }
 
+    /// The return ratio of the bounces added after the last pass, if
+    /// they were ([`tail`]).
+    pub fn tail_ratio(&self) -> Option<f64> {
+        self.tail_ratio
+    }
+
+    /// How many points so far took their reflected light from the
+    /// element centres' cache, and how many gathered it themselves (both
+    /// 0 without a cache).
     pub fn reflected_reuse(&self) -> (usize, usize) {
         let [reused, gathered] = &self.gather.reused;
         (
@@ -642,34 +660,6 @@ impl<'a> FinalGather<'a> {
 /// Where a value is gathered: point, normal, patch (`u32::MAX`: none).
 type Frame = (Vec3, Vec3, u32);
 
-/// The reflected cache's records: every exposed element centre's
-/// reflected light (`gathered` at `frames`) and how far it holds
-/// (`reach`).
-fn centre_records(
-    frames: &[Frame],
-    gathered: &[(Vec3, point_gather::Gathered)],
-    reach: &[f32],
-    exposed: &[ExposedPart],
-    mesh: &Mesh,
-) -> Vec<Record> {
-    frames
-        .iter()
-        .zip(gathered.iter().zip(reach))
-        .zip(exposed.iter().zip(&mesh.elements))
-        .filter(|(_, (part, _))| part.share > 0.0)
-        .map(
-            |((&(point, normal, patch), ((_, g), &reach)), (_, e))| Record {
-                point,
-                normal,
-                patch,
-                width: (2.0 * e.area).sqrt(),
-                reach,
-                reflected: g.reflected,
-            },
-        )
-        .collect()
-}
-
 /// Whether light whose levels range over `lo..=hi` is even: the brightest
 /// within `uniformity` of the dimmest (or all dark).
 fn is_even(lo: f32, hi: f32, uniformity: f32) -> bool {
@@ -690,6 +680,7 @@ pub mod refine;
 mod reflected_cache;
 mod shared_centres;
 mod sources;
+mod tail;
 #[cfg(test)]
 mod tests;
 mod vertices;

@@ -26,7 +26,11 @@ use std::collections::HashMap;
 
 use glam::{Mat3, Vec3};
 
+use super::exposure::ExposedPart;
+use super::point_gather::Gathered;
+use super::Frame;
 use crate::geom::tangent_frame;
+use crate::mesh::Mesh;
 
 /// One element centre's reflected light.
 #[derive(Debug, Clone, Copy)]
@@ -209,6 +213,34 @@ impl HarmonicDistance {
             f32::INFINITY
         }
     }
+}
+
+/// The reflected cache's records: every exposed element centre's
+/// reflected light (`gathered` at `frames`) and how far it holds
+/// (`reach`).
+pub(super) fn centre_records(
+    frames: &[Frame],
+    gathered: &[(Vec3, Gathered)],
+    reach: &[f32],
+    exposed: &[ExposedPart],
+    mesh: &Mesh,
+) -> Vec<Record> {
+    frames
+        .iter()
+        .zip(gathered.iter().zip(reach))
+        .zip(exposed.iter().zip(&mesh.elements))
+        .filter(|(_, (part, _))| part.share > 0.0)
+        .map(
+            |((&(point, normal, patch), ((_, g), &reach)), (_, e))| Record {
+                point,
+                normal,
+                patch,
+                width: (2.0 * e.area).sqrt(),
+                reach,
+                reflected: g.reflected,
+            },
+        )
+        .collect()
 }
 
 #[cfg(test)]

@@ -82,6 +82,50 @@ fn a_closed_glowing_box_gathers_its_exact_radiosity() {
     }
 }
 
+#[test]
+fn the_bounces_past_the_last_pass_are_added_as_their_geometric_tail() {
+    // A closed box whose floor emits E = 1, every face reflecting 0.8,
+    // gathered from the emission alone. Eight passes and the gather at the
+    // points bring ten bounces, 1 - 0.8^10 (89%) of the light; the tail
+    // adds the rest at the box's return ratio, which is rho exactly (a
+    // closed room's form factors sum to 1 from every point).
+    let rho = 0.8;
+    let faces = box_faces(Vec3::ZERO, Vec3::new(1.0, 1.0, 1.5), true, false);
+    let refs: Vec<&[Vec3]> = faces.iter().map(|f| f.as_slice()).collect();
+    let mut s = scene(&refs);
+    s.materials = vec![material(rho, 0.0), material(rho, 1.0)];
+    let floor = 2; // y = 0
+    s.patches[floor].material = 1;
+    let mesh = uniform(&s, 0.25);
+    let tree = ShooterTree::new(&s, &mesh);
+    let emitted = |e: &crate::mesh::Element| if e.patch as usize == floor { 1.0 } else { 0.0 };
+    let b: Vec<[f32; 3]> = mesh.elements.iter().map(|e| [emitted(e); 3]).collect();
+    let settings = VertexGather {
+        source_passes: 8,
+        ..VertexGather::default()
+    };
+    let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+    let r = gather.tail_ratio().expect("a tail after eight passes");
+    assert!((r - f64::from(rho)).abs() < 0.01, "return ratio {r}");
+    // Mean irradiance H = (B - E) / rho against the energy balance
+    // Phi / (A (1 - rho)).
+    let frames: Vec<_> = mesh
+        .elements
+        .iter()
+        .map(|e| (e.centre, e.normal, e.patch))
+        .collect();
+    let got = gather.at_points(&frames);
+    let (mut received, mut area) = (0.0f64, 0.0f64);
+    for (e, g) in mesh.elements.iter().zip(&got) {
+        received += f64::from((g[0] - emitted(e)) / rho * e.area);
+        area += f64::from(e.area);
+    }
+    let expected = f64::from(s.patches[floor].area) / (area * (1.0 - f64::from(rho)));
+    let off = received / area / expected - 1.0;
+    eprintln!("tail ratio {r:.4}; mean irradiance {:.4}% off", 100.0 * off);
+    assert!(off.abs() < 0.01, "mean irradiance {:.3}% off", 100.0 * off);
+}
+
 /// A 4 x 4 floor (patch 0), a unit square light 2 above it (patch 1), a
 /// 0.6 x 0.3 x 0.6 box (no bottom face) standing on the floor beside the
 /// light's footprint, at x 0.6..1.2, |z| < 0.3. Returns the scene and the
