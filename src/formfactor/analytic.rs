@@ -9,6 +9,7 @@
 //! near field), or adaptively (`polygon_to_polygon_adaptive`, with an
 //! error estimate). All in `f64`.
 
+use std::borrow::Cow;
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -20,18 +21,19 @@ pub use crate::geom::polygon_area;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
-/// Clips `poly` to the half-space `(x - p) . n >= 0` (Sutherland-Hodgman).
-pub(crate) fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
-    let k = poly.len();
-    let d: Vec<f64> = poly.iter().map(|&v| (v - p).dot(n)).collect();
-    if d.iter().all(|&x| x >= 0.0) {
-        return poly.to_vec();
+/// Clips `poly` to the half-space `(x - p) . n >= 0` (Sutherland-Hodgman);
+/// `poly` itself, uncopied, when it lies wholly there (the common case of
+/// the gather, which calls this for every source it takes).
+pub(crate) fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Cow<'_, [DVec3]> {
+    let d = |v: DVec3| (v - p).dot(n);
+    if poly.iter().all(|&v| d(v) >= 0.0) {
+        return Cow::Borrowed(poly);
     }
+    let k = poly.len();
     let mut out = Vec::with_capacity(k + 2);
     for i in 0..k {
-        let j = (i + 1) % k;
-        let (a, b) = (poly[i], poly[j]);
-        let (da, db) = (d[i], d[j]);
+        let (a, b) = (poly[i], poly[(i + 1) % k]);
+        let (da, db) = (d(a), d(b));
         if da >= 0.0 {
             out.push(a);
         }
@@ -42,7 +44,7 @@ pub(crate) fn clip_to_front(p: DVec3, n: DVec3, poly: &[DVec3]) -> Vec<DVec3> {
             out.push(x - n * (x - p).dot(n));
         }
     }
-    out
+    Cow::Owned(out)
 }
 
 /// The form factor from a differential area at `p` with unit normal `n` to

@@ -546,7 +546,11 @@ impl Gather<'_> {
                 && !look_beside
                 && links.is_none();
             let faces = at.faces(node.centre, node.normal, &node.polygon);
-            let far = node.radius <= settings.opening * distance;
+            let opening = match links {
+                Some(_) => settings.link_opening,
+                None => settings.opening,
+            };
+            let far = node.radius <= opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
             // The distance to its nearest point, when recording.
             let mut nearest = f32::INFINITY;
