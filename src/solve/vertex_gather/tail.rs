@@ -55,11 +55,17 @@ impl Passes {
         if passes < SETTLED_PASSES + 2 || values.len() != areas.len() {
             return None;
         }
+        // The size of a change: its area-weighted sum of magnitudes. The
+        // light may approach its limit from below (unshot light) or from
+        // above (an ambient term that overshot), and elements of both
+        // kinds take the same ratio.
         let change = |new: &[[f32; 3]], old: &[[f32; 3]]| -> f64 {
             new.iter()
                 .zip(old)
                 .zip(areas)
-                .map(|((n, o), &a)| f64::from((Vec3::from(*n) - Vec3::from(*o)).element_sum() * a))
+                .map(|((n, o), &a)| {
+                    f64::from((Vec3::from(*n) - Vec3::from(*o)).element_sum().abs() * a)
+                })
                 .sum()
         };
         let (older, newer) = (change(before, before_that), change(last, before));
@@ -82,14 +88,15 @@ mod tests {
 
     #[test]
     fn a_geometric_series_is_summed_to_its_limit() {
-        // Two elements whose values approach 1 and 3 by changes that
-        // halve each pass.
+        // Two elements whose values approach 1 from below and 3 from
+        // above (an ambient term that overshot) by changes that halve
+        // each pass.
         let limit = [1.0f32, 3.0];
         let at = |k: i32| -> Vec<[f32; 3]> {
-            limit
-                .iter()
-                .map(|&l| [l * (1.0 - 0.5f32.powi(k + 1)); 3])
-                .collect()
+            vec![
+                [limit[0] * (1.0 - 0.5f32.powi(k + 1)); 3],
+                [limit[1] * (1.0 + 0.5f32.powi(k + 1)); 3],
+            ]
         };
         let mut passes = Passes::default();
         for k in 0..6 {
