@@ -164,18 +164,10 @@ impl Default for VertexGather {
 /// ([`Gather::beside`]) instead of its mean; over the second, only that.
 const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 
-/// Default [`VertexGather::link_opening`]: half the opening elsewhere.
-/// The links freeze the hierarchy as the first pass opened it, by light
-/// that the ambient term still evens out (the Cornell box's solve stops
-/// with 72% of its light unshot), and a far node taken whole lends its
-/// mean where the receiver's form factor leans to one side. Measured at
-/// 256x256 against the path-traced references (times medians of three,
-/// interleaved): the Cornell box 1.262% (bias -0.312%) in 1.77 s at 0.5,
-/// 1.159% (-0.187%) in 1.83 s at 0.25, 1.095% (-0.055%) in 2.23 s at 0.1,
-/// 1.082% (-0.043%) in 2.64 s at 0; CornellBox-Original 2.362% (-0.380%)
-/// in 2.23 s at 0.5, 2.298% (-0.237%) in 2.40 s at 0.25, 2.27% (-0.138%)
-/// in 3.7 s at 0.1 (one run); `rfield` and CornellBox-Sphere, whose
-/// small patches the hemisphere rays gather, identical.
+/// Default [`VertexGather::link_opening`]: half the opening elsewhere,
+/// since the links freeze the hierarchy as the first pass's light (evened
+/// out by the ambient term) opened it. Measured in ARCHITECTURE.md
+/// ("Only the first pass traces").
 const LINK_OPENING: f32 = 0.25;
 
 /// Default [`VertexGather::link_error`].
