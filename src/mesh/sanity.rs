@@ -31,6 +31,8 @@ const MIN_AREA: f64 = 1e-9;
 const STORED_AREA_TOL: f64 = 1e-3;
 /// Above this many cells per edge query, scan the patch's vertices instead.
 const MAX_QUERY_CELLS: i64 = 64;
+/// A patch of more elements than this is checked on all cores.
+const PARALLEL_ELEMENTS: usize = 4096;
 /// A patch of at most this many vertices is checked pair by pair: a grid
 /// costs more than it saves there (a letter's side is one quad).
 const BRUTE_FORCE_VERTICES: usize = 32;
@@ -94,9 +96,37 @@ impl Grid {
     /// Costs about `|b - a| / cell` lookups, however long the segment.
     fn query_segment(&self, a: DVec3, b: DVec3, keys: &mut Vec<Cell>, out: &mut Vec<u32>) {
         let steps = ((b - a).length() / self.cell).ceil().max(1.0) as usize;
+        out.clear();
+        let samples = (0..=steps).map(|i| self.key(a.lerp(b, i as f64 / steps as f64)));
+        let (lo, hi) = samples.clone().fold(
+            (
+                (i64::MAX, i64::MAX, i64::MAX),
+                (i64::MIN, i64::MIN, i64::MIN),
+            ),
+            |(lo, hi), c| {
+                (
+                    (lo.0.min(c.0), lo.1.min(c.1), lo.2.min(c.2)),
+                    (hi.0.max(c.0), hi.1.max(c.1), hi.2.max(c.2)),
+                )
+            },
+        );
+        // A short segment (most of a mesh's edges: one cell or two) takes
+        // the box around its cells, a superset with no cell twice.
+        let extent = (hi.0 - lo.0 + 3) * (hi.1 - lo.1 + 3) * (hi.2 - lo.2 + 3);
+        if extent <= MAX_QUERY_CELLS {
+            for x in lo.0 - 1..=hi.0 + 1 {
+                for y in lo.1 - 1..=hi.1 + 1 {
+                    for z in lo.2 - 1..=hi.2 + 1 {
+                        if let Some(vs) = self.cells.get(&(x, y, z)) {
+                            out.extend_from_slice(vs);
+                        }
+                    }
+                }
+            }
+            return;
+        }
         keys.clear();
-        for i in 0..=steps {
-            let c = self.key(a.lerp(b, i as f64 / steps as f64));
+        for c in samples {
             for x in -1..=1 {
                 for y in -1..=1 {
                     for z in -1..=1 {
@@ -107,7 +137,6 @@ impl Grid {
         }
         keys.sort_unstable();
         keys.dedup();
-        out.clear();
         for key in keys.iter() {
             if let Some(vs) = self.cells.get(key) {
                 out.extend_from_slice(vs);
@@ -355,28 +384,25 @@ impl Mesh {
             let cell = median.max(edge_tol * 4.0).max(f64::MIN_POSITIVE);
             Grid::new(cell, used, &self.vertices)
         });
-        let (mut found, mut keys) = (Vec::new(), Vec::new());
-
-        for &v in used {
+        // Another vertex within the duplicate tolerance of `v`.
+        let duplicate = |v: u32, found: &mut Vec<u32>| {
             let q = d(self.vertices[v as usize]);
             let slack = DVec3::splat(dup_tol);
             let in_grid = grid
                 .as_ref()
-                .is_some_and(|grid| grid.query(q - slack, q + slack, &mut found));
+                .is_some_and(|grid| grid.query(q - slack, q + slack, found));
             let near = if in_grid { &found[..] } else { used };
-            if let Some(&w) = near
+            let w = near
                 .iter()
-                .find(|&&w| w != v && d(self.vertices[w as usize]).distance(q) <= dup_tol)
-            {
-                return Err(format!(
-                    "patch {p}: vertices {v} and {w} are duplicates (both at {})",
-                    self.vertices[v as usize]
-                ));
-            }
-        }
-
-        for (offset, el) in elements.iter().enumerate() {
-            let c = el.corners();
+                .find(|&&w| w != v && d(self.vertices[w as usize]).distance(q) <= dup_tol)?;
+            Some(format!(
+                "patch {p}: vertices {v} and {w} are duplicates (both at {})",
+                self.vertices[v as usize]
+            ))
+        };
+        // A vertex inside one of element `offset`'s edges.
+        let t_junction = |offset: usize, keys: &mut Vec<Cell>, found: &mut Vec<u32>| {
+            let c = elements[offset].corners();
             for k in 0..c.len() {
                 let (ia, ib) = (c[k], c[(k + 1) % c.len()]);
                 let (a, b) = (d(self.vertices[ia as usize]), d(self.vertices[ib as usize]));
@@ -384,7 +410,7 @@ impl Mesh {
                 // T-junction is in the cells along the edge.
                 let near = match &grid {
                     Some(grid) => {
-                        grid.query_segment(a, b, &mut keys, &mut found);
+                        grid.query_segment(a, b, keys, found);
                         &found[..]
                     }
                     None => used,
@@ -405,15 +431,39 @@ impl Mesh {
                         continue;
                     }
                     if (aw - t * dir).length() < edge_tol {
-                        return Err(format!(
+                        return Some(format!(
                             "patch {p}: T-junction, vertex {w} lies inside edge {ia}-{ib} of element {}",
                             range.start as usize + offset
                         ));
                     }
                 }
             }
-        }
-        Ok(())
+            None
+        };
+        // A large patch (a floor under many shadow lines) is checked on
+        // all cores: the patches are, but it alone may be most of a mesh.
+        let defect = if elements.len() > PARALLEL_ELEMENTS {
+            used.par_iter()
+                .map_init(Vec::new, |found, &v| duplicate(v, found))
+                .find_first(Option::is_some)
+                .flatten()
+                .or_else(|| {
+                    (0..elements.len())
+                        .into_par_iter()
+                        .map_init(
+                            || (Vec::new(), Vec::new()),
+                            |(keys, found), offset| t_junction(offset, keys, found),
+                        )
+                        .find_first(Option::is_some)
+                        .flatten()
+                })
+        } else {
+            let (mut keys, mut found) = (Vec::new(), Vec::new());
+            used.iter()
+                .find_map(|&v| duplicate(v, &mut found))
+                .or_else(|| (0..elements.len()).find_map(|o| t_junction(o, &mut keys, &mut found)))
+        };
+        defect.map_or(Ok(()), Err)
     }
 }
 
@@ -835,9 +885,16 @@ mod tests {
     #[test]
     fn a_large_patch_is_checked_on_its_grid_and_still_caught() {
         // 8 x 8 quads: 81 vertices, over BRUTE_FORCE_VERTICES, so the
-        // queries go through the patch's grid.
+        // queries go through the patch's grid; 80 x 80, over
+        // PARALLEL_ELEMENTS, on all cores too.
+        for side in [8u16, 80] {
+            large_patch_caught(side);
+        }
+    }
+
+    fn large_patch_caught(side: u16) {
         let s = scene(&[&unit_square()]);
-        let sane = uniform(&s, 1.0 / 8.0);
+        let sane = uniform(&s, 1.0 / f32::from(side));
         assert!(sane.vertices.len() > super::BRUTE_FORCE_VERTICES);
         sane.sanity_check(&s).expect("sane");
         // A T-junction: element 0 split at the middle of its edge c1-c2,
