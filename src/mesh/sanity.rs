@@ -2,6 +2,7 @@
 //! debugging). Geometry is re-derived from the vertices in f64.
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -43,17 +44,45 @@ fn d(v: Vec3) -> DVec3 {
 
 type Cell = (i64, i64, i64);
 
+/// Vertices by grid cell, hashed cheaply.
+type CellMap = HashMap<Cell, Vec<u32>, BuildHasherDefault<CellHasher>>;
+
+/// A multiplicative hash for cell keys (the default SipHash costs more
+/// than the rest of a lookup here).
+#[derive(Default)]
+struct CellHasher(u64);
+
+impl Hasher for CellHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_i64(&mut self, x: i64) {
+        self.write_u64(x as u64);
+    }
+
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
 /// A uniform grid over one patch's vertices.
 struct Grid {
     cell: f64,
-    cells: HashMap<Cell, Vec<u32>>,
+    cells: CellMap,
 }
 
 impl Grid {
     fn new(cell: f64, vertices: &[u32], positions: &[Vec3]) -> Self {
         let mut grid = Grid {
             cell,
-            cells: HashMap::new(),
+            cells: CellMap::default(),
         };
         for &v in vertices {
             let key = grid.key(d(positions[v as usize]));
@@ -94,7 +123,7 @@ impl Grid {
     /// superset of the vertices closer to it than half a cell (a point of
     /// the segment is within half a cell of a sample, samples a cell apart).
     /// Costs about `|b - a| / cell` lookups, however long the segment.
-    fn query_segment(&self, a: DVec3, b: DVec3, keys: &mut Vec<Cell>, out: &mut Vec<u32>) {
+    fn query_segment(&self, a: DVec3, b: DVec3, out: &mut Vec<u32>) {
         let steps = ((b - a).length() / self.cell).ceil().max(1.0) as usize;
         out.clear();
         let samples = (0..=steps).map(|i| self.key(a.lerp(b, i as f64 / steps as f64)));
@@ -125,22 +154,30 @@ impl Grid {
             }
             return;
         }
-        keys.clear();
+        // A long one: the cells around each sample that the previous
+        // sample's did not cover (samples a cell apart share most of
+        // them). A cell two samples back may come again: its vertices are
+        // then looked at twice, which the caller's tests allow.
+        let mut previous: Option<Cell> = None;
         for c in samples {
             for x in -1..=1 {
                 for y in -1..=1 {
                     for z in -1..=1 {
-                        keys.push((c.0 + x, c.1 + y, c.2 + z));
+                        let n = (c.0 + x, c.1 + y, c.2 + z);
+                        let covered = previous.is_some_and(|p| {
+                            (n.0 - p.0).abs() <= 1
+                                && (n.1 - p.1).abs() <= 1
+                                && (n.2 - p.2).abs() <= 1
+                        });
+                        if !covered {
+                            if let Some(vs) = self.cells.get(&n) {
+                                out.extend_from_slice(vs);
+                            }
+                        }
                     }
                 }
             }
-        }
-        keys.sort_unstable();
-        keys.dedup();
-        for key in keys.iter() {
-            if let Some(vs) = self.cells.get(key) {
-                out.extend_from_slice(vs);
-            }
+            previous = Some(c);
         }
     }
 }
@@ -401,7 +438,7 @@ impl Mesh {
             ))
         };
         // A vertex inside one of element `offset`'s edges.
-        let t_junction = |offset: usize, keys: &mut Vec<Cell>, found: &mut Vec<u32>| {
+        let t_junction = |offset: usize, found: &mut Vec<u32>| {
             let c = elements[offset].corners();
             for k in 0..c.len() {
                 let (ia, ib) = (c[k], c[(k + 1) % c.len()]);
@@ -410,7 +447,7 @@ impl Mesh {
                 // T-junction is in the cells along the edge.
                 let near = match &grid {
                     Some(grid) => {
-                        grid.query_segment(a, b, keys, found);
+                        grid.query_segment(a, b, found);
                         &found[..]
                     }
                     None => used,
@@ -450,18 +487,15 @@ impl Mesh {
                 .or_else(|| {
                     (0..elements.len())
                         .into_par_iter()
-                        .map_init(
-                            || (Vec::new(), Vec::new()),
-                            |(keys, found), offset| t_junction(offset, keys, found),
-                        )
+                        .map_init(Vec::new, |found, offset| t_junction(offset, found))
                         .find_first(Option::is_some)
                         .flatten()
                 })
         } else {
-            let (mut keys, mut found) = (Vec::new(), Vec::new());
+            let mut found = Vec::new();
             used.iter()
                 .find_map(|&v| duplicate(v, &mut found))
-                .or_else(|| (0..elements.len()).find_map(|o| t_junction(o, &mut keys, &mut found)))
+                .or_else(|| (0..elements.len()).find_map(|o| t_junction(o, &mut found)))
         };
         defect.map_or(Ok(()), Err)
     }
@@ -551,33 +585,30 @@ pub(crate) fn shared_edges(scene: &Scene) -> Vec<SharedEdge> {
         }
     }
     edges.sort_by(|x, y| x.lo.x.total_cmp(&y.lo.x));
-    let mut out = Vec::new();
-    for i in 0..edges.len() {
-        let e = &edges[i];
-        for f in &edges[i + 1..] {
-            if f.lo.x > e.hi.x + e.tol.max(f.tol) {
-                break;
-            }
-            if f.p == e.p {
-                continue;
-            }
-            let tol = e.tol.min(f.tol);
-            if (f.lo - DVec3::splat(tol)).cmpgt(e.hi).any()
-                || (e.lo - DVec3::splat(tol)).cmpgt(f.hi).any()
-            {
-                continue;
-            }
-            if collinear_overlap(e.a, e.b, f.a, f.b, tol)
-                && collinear_overlap(f.a, f.b, e.a, e.b, tol)
-            {
-                out.push(SharedEdge {
+    // Each edge against those after it whose x range meets its own, on
+    // all cores (the pairs come out in the order a single sweep finds
+    // them).
+    (0..edges.len())
+        .into_par_iter()
+        .flat_map_iter(|i| {
+            let e = &edges[i];
+            edges[i + 1..]
+                .iter()
+                .take_while(move |f| f.lo.x <= e.hi.x + e.tol.max(f.tol))
+                .filter(move |f| {
+                    let tol = e.tol.min(f.tol);
+                    f.p != e.p
+                        && !(f.lo - DVec3::splat(tol)).cmpgt(e.hi).any()
+                        && !(e.lo - DVec3::splat(tol)).cmpgt(f.hi).any()
+                        && collinear_overlap(e.a, e.b, f.a, f.b, tol)
+                        && collinear_overlap(f.a, f.b, e.a, e.b, tol)
+                })
+                .map(move |f| SharedEdge {
                     a: (e.p, e.k),
                     b: (f.p, f.k),
-                });
-            }
-        }
-    }
-    out
+                })
+        })
+        .collect()
 }
 
 impl Mesh {
@@ -643,7 +674,7 @@ impl Mesh {
                 (a + ab * t).distance(q) <= tol
             };
             let range = self.patch_elements[p].clone();
-            let mut uses: HashMap<[u32; 2], u32> = HashMap::new();
+            let mut edges: Vec<[u32; 2]> = Vec::new();
             let mut verts: Vec<u32> = Vec::new();
             for e in range {
                 let Some(el) = self.elements.get(e as usize) else {
@@ -652,12 +683,19 @@ impl Mesh {
                 let c = el.corners();
                 for i in 0..c.len() {
                     let (a, b) = (c[i], c[(i + 1) % c.len()]);
-                    *uses.entry([a.min(b), a.max(b)]).or_default() += 1;
+                    edges.push([a.min(b), a.max(b)]);
                     verts.push(a);
                 }
             }
             verts.sort_unstable();
             verts.dedup();
+            // The patch's boundary: the element edges used once.
+            edges.sort_unstable();
+            let once: Vec<[u32; 2]> = edges
+                .chunk_by(|x, y| x == y)
+                .filter(|run| run.len() == 1)
+                .map(|run| run[0])
+                .collect();
             if verts.iter().any(|&v| v as usize >= self.vertices.len()) {
                 return Err(format!("patch {p}: a corner is not a vertex"));
             }
@@ -668,9 +706,9 @@ impl Mesh {
                 );
                 boundary.insert(
                     (p, k),
-                    uses.iter()
-                        .filter(|&(e, &count)| count == 1 && near(k, e[0]) && near(k, e[1]))
-                        .map(|(e, _)| *e)
+                    once.iter()
+                        .copied()
+                        .filter(|e| near(k, e[0]) && near(k, e[1]))
                         .collect(),
                 );
             }

@@ -18,7 +18,6 @@
 //! Facing patches (opposite normals) are different surfaces.
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -55,7 +54,7 @@ pub struct TJunction {
     pub distance: f64,
 }
 
-type Cell = (i64, i64, i64);
+use super::{Cell, CellMap};
 
 /// The normal and size of every patch.
 struct Planes {
@@ -248,33 +247,6 @@ struct Grid {
     base: f64,
     margin: f64,
     levels: Vec<CellMap>,
-}
-
-type CellMap = HashMap<Cell, Vec<u32>, BuildHasherDefault<CellHasher>>;
-
-/// A multiplicative hash for cell keys (the default SipHash costs more
-/// than the rest of a lookup here).
-#[derive(Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
-
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
-    }
 }
 
 const FANOUT: i64 = 4;
