@@ -1,9 +1,6 @@
 //! Mesh invariants, checked in one place (for tests and `--check` style
 //! debugging). Geometry is re-derived from the vertices in f64.
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -13,8 +10,12 @@ use crate::geom::newell;
 use crate::scene::Scene;
 
 mod coplanar;
+mod cross_patch;
+mod grid;
 pub(crate) use coplanar::F32_SLACK;
 pub use coplanar::{coplanar_t_junctions, distinct_t_junctions, TJunction};
+pub(crate) use cross_patch::{shared_edges, SharedEdge};
+use grid::Grid;
 
 /// Relative tolerance (to the patch size) under which two vertices of one
 /// patch count as the same point.
@@ -30,8 +31,6 @@ const AREA_SUM_TOL: f64 = 1e-4;
 const MIN_AREA: f64 = 1e-9;
 /// Relative tolerance between an element's stored and geometric area.
 const STORED_AREA_TOL: f64 = 1e-3;
-/// Above this many cells per edge query, scan the patch's vertices instead.
-const MAX_QUERY_CELLS: i64 = 64;
 /// A patch of more elements than this is checked on all cores.
 const PARALLEL_ELEMENTS: usize = 4096;
 /// A patch of at most this many vertices is checked pair by pair: a grid
@@ -40,146 +39,6 @@ const BRUTE_FORCE_VERTICES: usize = 32;
 
 fn d(v: Vec3) -> DVec3 {
     v.as_dvec3()
-}
-
-type Cell = (i64, i64, i64);
-
-/// Vertices by grid cell, hashed cheaply.
-type CellMap = HashMap<Cell, Vec<u32>, BuildHasherDefault<CellHasher>>;
-
-/// A multiplicative hash for cell keys (the default SipHash costs more
-/// than the rest of a lookup here).
-#[derive(Default)]
-struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-
-    fn write_i64(&mut self, x: i64) {
-        self.write_u64(x as u64);
-    }
-
-    fn write_u64(&mut self, x: u64) {
-        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
-    }
-}
-
-/// A uniform grid over one patch's vertices.
-struct Grid {
-    cell: f64,
-    cells: CellMap,
-}
-
-impl Grid {
-    fn new(cell: f64, vertices: &[u32], positions: &[Vec3]) -> Self {
-        let mut grid = Grid {
-            cell,
-            cells: CellMap::default(),
-        };
-        for &v in vertices {
-            let key = grid.key(d(positions[v as usize]));
-            grid.cells.entry(key).or_default().push(v);
-        }
-        grid
-    }
-
-    fn key(&self, p: DVec3) -> Cell {
-        let q = (p / self.cell).floor();
-        (q.x as i64, q.y as i64, q.z as i64)
-    }
-
-    /// Vertices in the cells overlapping the box [lo, hi], or `None` when that
-    /// is more than [`MAX_QUERY_CELLS`] cells.
-    fn query(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) -> bool {
-        let (a, b) = (self.key(lo), self.key(hi));
-        let count = (b.0 - a.0 + 1)
-            .saturating_mul(b.1 - a.1 + 1)
-            .saturating_mul(b.2 - a.2 + 1);
-        if count > MAX_QUERY_CELLS {
-            return false;
-        }
-        out.clear();
-        for x in a.0..=b.0 {
-            for y in a.1..=b.1 {
-                for z in a.2..=b.2 {
-                    if let Some(vs) = self.cells.get(&(x, y, z)) {
-                        out.extend_from_slice(vs);
-                    }
-                }
-            }
-        }
-        true
-    }
-
-    /// Vertices in the cells within one cell of the segment [a, b]: a
-    /// superset of the vertices closer to it than half a cell (a point of
-    /// the segment is within half a cell of a sample, samples a cell apart).
-    /// Costs about `|b - a| / cell` lookups, however long the segment.
-    fn query_segment(&self, a: DVec3, b: DVec3, out: &mut Vec<u32>) {
-        let steps = ((b - a).length() / self.cell).ceil().max(1.0) as usize;
-        out.clear();
-        let samples = (0..=steps).map(|i| self.key(a.lerp(b, i as f64 / steps as f64)));
-        let (lo, hi) = samples.clone().fold(
-            (
-                (i64::MAX, i64::MAX, i64::MAX),
-                (i64::MIN, i64::MIN, i64::MIN),
-            ),
-            |(lo, hi), c| {
-                (
-                    (lo.0.min(c.0), lo.1.min(c.1), lo.2.min(c.2)),
-                    (hi.0.max(c.0), hi.1.max(c.1), hi.2.max(c.2)),
-                )
-            },
-        );
-        // A short segment (most of a mesh's edges: one cell or two) takes
-        // the box around its cells, a superset with no cell twice.
-        let extent = (hi.0 - lo.0 + 3) * (hi.1 - lo.1 + 3) * (hi.2 - lo.2 + 3);
-        if extent <= MAX_QUERY_CELLS {
-            for x in lo.0 - 1..=hi.0 + 1 {
-                for y in lo.1 - 1..=hi.1 + 1 {
-                    for z in lo.2 - 1..=hi.2 + 1 {
-                        if let Some(vs) = self.cells.get(&(x, y, z)) {
-                            out.extend_from_slice(vs);
-                        }
-                    }
-                }
-            }
-            return;
-        }
-        // A long one: the cells around each sample that the previous
-        // sample's did not cover (samples a cell apart share most of
-        // them). A cell two samples back may come again: its vertices are
-        // then looked at twice, which the caller's tests allow.
-        let mut previous: Option<Cell> = None;
-        for c in samples {
-            for x in -1..=1 {
-                for y in -1..=1 {
-                    for z in -1..=1 {
-                        let n = (c.0 + x, c.1 + y, c.2 + z);
-                        let covered = previous.is_some_and(|p| {
-                            (n.0 - p.0).abs() <= 1
-                                && (n.1 - p.1).abs() <= 1
-                                && (n.2 - p.2).abs() <= 1
-                        });
-                        if !covered {
-                            if let Some(vs) = self.cells.get(&n) {
-                                out.extend_from_slice(vs);
-                            }
-                        }
-                    }
-                }
-            }
-            previous = Some(c);
-        }
-    }
 }
 
 impl Mesh {
@@ -501,14 +360,6 @@ impl Mesh {
     }
 }
 
-/// Two collinear, overlapping boundary edges of different patches:
-/// `(patch, edge)` pairs, edge `k` running from vertex `k` to `k + 1`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct SharedEdge {
-    pub a: (usize, usize),
-    pub b: (usize, usize),
-}
-
 /// Size (bounding-box diagonal) of a patch, in f64.
 pub(crate) fn patch_size(vertices: &[Vec3]) -> f64 {
     let (lo, hi) = vertices
@@ -522,93 +373,6 @@ pub(crate) fn patch_size(vertices: &[Vec3]) -> f64 {
     } else {
         0.0
     }
-}
-
-// `!(x > y)` on purpose: NaN never passes.
-#[allow(clippy::neg_cmp_op_on_partial_ord)]
-/// Whether edge `a0`-`a1` lies on the line of `b0`-`b1` (within `tol`) over a
-/// common stretch longer than `tol`.
-fn collinear_overlap(a0: DVec3, a1: DVec3, b0: DVec3, b1: DVec3, tol: f64) -> bool {
-    let dir = b1 - b0;
-    let len = dir.length();
-    if !(len > tol) {
-        return false;
-    }
-    let u = dir / len;
-    let (s0, s1) = ((a0 - b0).dot(u), (a1 - b0).dot(u));
-    let lo = s0.min(s1).max(0.0);
-    let hi = s0.max(s1).min(len);
-    if !(hi - lo > tol) || !((s1 - s0).abs() > tol) {
-        return false;
-    }
-    [lo, hi].iter().all(|&s| {
-        let a = a0 + (a1 - a0) * ((s - s0) / (s1 - s0));
-        let r = a - b0;
-        (r - u * r.dot(u)).length() <= tol
-    })
-}
-
-/// Every pair of boundary edges of different patches that lie on one line
-/// and overlap (within 1e-5 of the smaller patch's size): the edges along
-/// which neighbouring patches must be split identically. Sweep over x.
-pub(crate) fn shared_edges(scene: &Scene) -> Vec<SharedEdge> {
-    struct E {
-        p: usize,
-        k: usize,
-        a: DVec3,
-        b: DVec3,
-        lo: DVec3,
-        hi: DVec3,
-        tol: f64,
-    }
-    let mut edges: Vec<E> = Vec::new();
-    for (p, patch) in scene.patches.iter().enumerate() {
-        let n = patch.vertices.len();
-        if n < 3 {
-            continue;
-        }
-        let tol = ON_EDGE_TOL * patch_size(&patch.vertices);
-        for k in 0..n {
-            let (a, b) = (d(patch.vertices[k]), d(patch.vertices[(k + 1) % n]));
-            if !(a.is_finite() && b.is_finite()) {
-                continue;
-            }
-            edges.push(E {
-                p,
-                k,
-                a,
-                b,
-                lo: a.min(b),
-                hi: a.max(b),
-                tol,
-            });
-        }
-    }
-    edges.sort_by(|x, y| x.lo.x.total_cmp(&y.lo.x));
-    // Each edge against those after it whose x range meets its own, on
-    // all cores (the pairs come out in the order a single sweep finds
-    // them).
-    (0..edges.len())
-        .into_par_iter()
-        .flat_map_iter(|i| {
-            let e = &edges[i];
-            edges[i + 1..]
-                .iter()
-                .take_while(move |f| f.lo.x <= e.hi.x + e.tol.max(f.tol))
-                .filter(move |f| {
-                    let tol = e.tol.min(f.tol);
-                    f.p != e.p
-                        && !(f.lo - DVec3::splat(tol)).cmpgt(e.hi).any()
-                        && !(e.lo - DVec3::splat(tol)).cmpgt(f.hi).any()
-                        && collinear_overlap(e.a, e.b, f.a, f.b, tol)
-                        && collinear_overlap(f.a, f.b, e.a, e.b, tol)
-                })
-                .map(move |f| SharedEdge {
-                    a: (e.p, e.k),
-                    b: (f.p, f.k),
-                })
-        })
-        .collect()
 }
 
 impl Mesh {
@@ -629,125 +393,6 @@ impl Mesh {
     pub fn sanity_check_watertight(&self, scene: &Scene) -> crate::Result<()> {
         self.sanity_check(scene)?;
         self.check_cross_patch(scene)
-    }
-
-    /// No T-junctions between patches: where boundary edges of two patches
-    /// P and Q lie on one line and overlap, no vertex of P on that edge lies
-    /// inside (farther than 1e-5 of Q's size from the ends) a boundary edge
-    /// of one of Q's elements on it. Expects `patch_elements` to be valid
-    /// (run [`Mesh::sanity_check`] first). About linear in the mesh size.
-    pub fn check_cross_patch(&self, scene: &Scene) -> crate::Result<()> {
-        self.first_cross_patch_defect(scene).map_err(Error::Mesh)
-    }
-
-    /// The first failure of [`Mesh::check_cross_patch`], described.
-    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN never passes
-    fn first_cross_patch_defect(&self, scene: &Scene) -> Result<(), String> {
-        if self.patch_elements.len() != scene.patches.len() {
-            return Err("patch_elements does not match the scene".into());
-        }
-        let shared = shared_edges(scene);
-        if shared.is_empty() {
-            return Ok(());
-        }
-        let mut involved: Vec<bool> = vec![false; scene.patches.len()];
-        for s in &shared {
-            involved[s.a.0] = true;
-            involved[s.b.0] = true;
-        }
-        // Per involved patch and patch edge: its mesh vertices on that edge
-        // and its elements' boundary edges on it.
-        let mut on_edge: HashMap<(usize, usize), Vec<u32>> = HashMap::new();
-        let mut boundary: HashMap<(usize, usize), Vec<[u32; 2]>> = HashMap::new();
-        for (p, patch) in scene.patches.iter().enumerate() {
-            if !involved[p] {
-                continue;
-            }
-            let n = patch.vertices.len();
-            let tol = ON_EDGE_TOL * patch_size(&patch.vertices);
-            let near = |k: usize, v: u32| {
-                let (a, b) = (d(patch.vertices[k]), d(patch.vertices[(k + 1) % n]));
-                let q = d(self.vertices[v as usize]);
-                let ab = b - a;
-                let t =
-                    ((q - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-                (a + ab * t).distance(q) <= tol
-            };
-            let range = self.patch_elements[p].clone();
-            let mut edges: Vec<[u32; 2]> = Vec::new();
-            let mut verts: Vec<u32> = Vec::new();
-            for e in range {
-                let Some(el) = self.elements.get(e as usize) else {
-                    return Err(format!("patch {p}: element {e} does not exist"));
-                };
-                let c = el.corners();
-                for i in 0..c.len() {
-                    let (a, b) = (c[i], c[(i + 1) % c.len()]);
-                    edges.push([a.min(b), a.max(b)]);
-                    verts.push(a);
-                }
-            }
-            verts.sort_unstable();
-            verts.dedup();
-            // The patch's boundary: the element edges used once.
-            edges.sort_unstable();
-            let once: Vec<[u32; 2]> = edges
-                .chunk_by(|x, y| x == y)
-                .filter(|run| run.len() == 1)
-                .map(|run| run[0])
-                .collect();
-            if verts.iter().any(|&v| v as usize >= self.vertices.len()) {
-                return Err(format!("patch {p}: a corner is not a vertex"));
-            }
-            for k in 0..n {
-                on_edge.insert(
-                    (p, k),
-                    verts.iter().copied().filter(|&v| near(k, v)).collect(),
-                );
-                boundary.insert(
-                    (p, k),
-                    once.iter()
-                        .copied()
-                        .filter(|e| near(k, e[0]) && near(k, e[1]))
-                        .collect(),
-                );
-            }
-        }
-        for s in &shared {
-            for (pe, qe) in [(s.a, s.b), (s.b, s.a)] {
-                let q_patch = &scene.patches[qe.0];
-                let tol = ON_EDGE_TOL * patch_size(&q_patch.vertices);
-                let n = q_patch.vertices.len();
-                let qa = d(q_patch.vertices[qe.1]);
-                let qb = d(q_patch.vertices[(qe.1 + 1) % n]);
-                let len = qa.distance(qb);
-                if !(len > 0.0) {
-                    continue;
-                }
-                let u = (qb - qa) / len;
-                let mut params: Vec<(f64, u32)> = on_edge[&pe]
-                    .iter()
-                    .map(|&v| ((d(self.vertices[v as usize]) - qa).dot(u), v))
-                    .collect();
-                params.sort_by(|x, y| x.0.total_cmp(&y.0));
-                for e in &boundary[&qe] {
-                    let s0 = (d(self.vertices[e[0] as usize]) - qa).dot(u);
-                    let s1 = (d(self.vertices[e[1] as usize]) - qa).dot(u);
-                    let (lo, hi) = (s0.min(s1) + tol, s0.max(s1) - tol);
-                    if lo >= hi {
-                        continue;
-                    }
-                    let first = params.partition_point(|x| x.0 <= lo);
-                    if let Some(&(_, w)) = params.get(first).filter(|x| x.0 < hi) {
-                        return Err(format!(
-                            "T-junction between patches: vertex {w} of patch {} lies inside edge {}-{} of patch {}'s element (shared edge {} of patch {} / edge {} of patch {})",
-                            pe.0, e[0], e[1], qe.0, pe.1, pe.0, qe.1, qe.0
-                        ));
-                    }
-                }
-            }
-        }
-        Ok(())
     }
 }
 

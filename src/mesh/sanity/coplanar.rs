@@ -54,7 +54,7 @@ pub struct TJunction {
     pub distance: f64,
 }
 
-use super::{Cell, CellMap};
+use super::grid::{Cell, CellMap};
 
 /// The normal and size of every patch.
 struct Planes {
