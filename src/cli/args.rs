@@ -288,6 +288,8 @@ pub(crate) struct RenderArgs {
     /// Jacobi passes of the final gather at the element centres before the
     /// vertices: each corrects the solved element values with exact form
     /// factors (their error shrinks by about the mean reflectance per pass).
+    /// After four or more, the bounces past the last are added as a
+    /// geometric tail at the ratio the last passes shrank by.
     #[arg(long, default_value_t = VertexGather::default().source_passes, value_name = "N")]
     pub(crate) gather_passes: usize,
     /// How far a display point may take the light reflected onto it from
