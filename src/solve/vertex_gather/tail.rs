@@ -11,13 +11,14 @@
 //! Measured on the Cornell box, whose solve stops with most of its light
 //! unshot and leaves the passes to carry it: the lit bias against the
 //! path tracer was -0.36% with 8 passes, -0.54% without the ambient term,
-//! and -0.19% with the solve converged (18 s instead of 1.8 s).
+//! and -0.19% with the solve converged (18 s instead of 1.8 s). The tail
+//! took it to -0.31%; the rest was the links' opening (`LINK_OPENING`).
 
 use glam::Vec3;
 
-/// Passes whose change is a pure bounce: the first records the links
-/// with the gather's own form factors, and the second still carries the
-/// change from the solve's values to them.
+/// The first passes, whose changes are not yet pure bounces: the first
+/// records the links with the gather's own form factors, and the second
+/// still carries the change from the solve's values to them.
 const SETTLED_PASSES: usize = 2;
 
 /// Past this ratio the tail is not trusted (its sum grows without
