@@ -66,17 +66,22 @@ impl Grid {
         (q.x as i64, q.y as i64, q.z as i64)
     }
 
-    /// Vertices in the cells overlapping the box [lo, hi], or `None` when that
-    /// is more than [`MAX_QUERY_CELLS`] cells.
+    /// Vertices in the cells overlapping the box [lo, hi], or false (and
+    /// nothing) when that is more than [`MAX_QUERY_CELLS`] cells.
     pub(super) fn query(&self, lo: DVec3, hi: DVec3, out: &mut Vec<u32>) -> bool {
-        let (a, b) = (self.key(lo), self.key(hi));
+        out.clear();
+        self.cells_in((self.key(lo), self.key(hi)), out)
+    }
+
+    /// Appends the vertices in the cells `a..=b` (each axis), unless they
+    /// are more than [`MAX_QUERY_CELLS`]: then false.
+    fn cells_in(&self, (a, b): (Cell, Cell), out: &mut Vec<u32>) -> bool {
         let count = (b.0 - a.0 + 1)
             .saturating_mul(b.1 - a.1 + 1)
             .saturating_mul(b.2 - a.2 + 1);
         if count > MAX_QUERY_CELLS {
             return false;
         }
-        out.clear();
         for x in a.0..=b.0 {
             for y in a.1..=b.1 {
                 for z in a.2..=b.2 {
@@ -111,17 +116,11 @@ impl Grid {
         );
         // A short segment (most of a mesh's edges: one cell or two) takes
         // the box around its cells, a superset with no cell twice.
-        let extent = (hi.0 - lo.0 + 3) * (hi.1 - lo.1 + 3) * (hi.2 - lo.2 + 3);
-        if extent <= MAX_QUERY_CELLS {
-            for x in lo.0 - 1..=hi.0 + 1 {
-                for y in lo.1 - 1..=hi.1 + 1 {
-                    for z in lo.2 - 1..=hi.2 + 1 {
-                        if let Some(vs) = self.cells.get(&(x, y, z)) {
-                            out.extend_from_slice(vs);
-                        }
-                    }
-                }
-            }
+        let around = (
+            (lo.0 - 1, lo.1 - 1, lo.2 - 1),
+            (hi.0 + 1, hi.1 + 1, hi.2 + 1),
+        );
+        if self.cells_in(around, out) {
             return;
         }
         // A long one: the cells around each sample that the previous

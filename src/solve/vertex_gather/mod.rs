@@ -412,24 +412,19 @@ impl<'a> FinalGather<'a> {
             }
             Ok(Arc::clone(bvh.as_ref().expect("uploaded")))
         };
+        let refusal = |what: &str, e: crate::error::Error| {
+            format!("the GPU cannot {what} ({e}); the CPU did")
+        };
         if let Some(device) = device.filter(|d| settings.ray_device.on_gpu(d)) {
             match upload(device).and_then(|bvh| GpuRays::new(device, bvh)) {
                 Ok(pass) => gather.gpu_rays = Some(pass),
-                Err(e) => {
-                    gpu_refused = Some(format!(
-                        "the GPU cannot trace the first-hit rays ({e}); the CPU did"
-                    ))
-                }
+                Err(e) => gpu_refused = Some(refusal("trace the first-hit rays", e)),
             }
         }
         if let Some(device) = device.filter(|d| settings.direct_light.on_gpu(d)) {
             match upload(device).and_then(|bvh| GpuDirect::new(device, bvh)) {
                 Ok(gpu) => gather.gpu_direct = Some(gpu),
-                Err(e) => {
-                    gpu_refused = Some(format!(
-                        "the GPU cannot gather the direct light ({e}); the CPU did"
-                    ))
-                }
+                Err(e) => gpu_refused = Some(refusal("gather the direct light", e)),
             }
         }
         gather.emitters_to_gpu(&roots, &mut gpu_refused);
@@ -541,7 +536,7 @@ impl<'a> FinalGather<'a> {
             }
             history.push(&corrected);
             if pass + 1 == settings.source_passes {
-                tail_ratio = history.add_tail(pass + 1, &mut corrected, &areas);
+                tail_ratio = history.add_tail(&mut corrected, &areas);
             }
             let lit = direct_means
                 .as_ref()

@@ -524,6 +524,12 @@ impl Gather<'_> {
                 None => stack.extend_from_slice(&cluster.roots),
             }
         }
+        // A gather that records its links opens deeper
+        // (`VertexGather::link_opening`).
+        let opening = match links {
+            Some(_) => settings.link_opening,
+            None => settings.opening,
+        };
         while let Some(n) = stack.pop() {
             let node = &self.tree.nodes[n as usize];
             if node.patch == at.patch {
@@ -546,10 +552,6 @@ impl Gather<'_> {
                 && !look_beside
                 && links.is_none();
             let faces = at.faces(node.centre, node.normal, &node.polygon);
-            let opening = match links {
-                Some(_) => settings.link_opening,
-                None => settings.opening,
-            };
             let far = node.radius <= opening * distance;
             let take_whole = node.children.is_empty() || (far && even);
             // The distance to its nearest point, when recording.

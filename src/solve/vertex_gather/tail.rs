@@ -25,10 +25,11 @@ const SETTLED_PASSES: usize = 2;
 /// bound as `r` nears 1, and the ratio of two noisy changes may).
 const MOST_RATIO: f64 = 0.95;
 
-/// The element values of the last three passes.
+/// The element values of the last three passes, and how many ran.
 #[derive(Default)]
 pub(super) struct Passes {
     values: Vec<Vec<[f32; 3]>>,
+    count: usize,
 }
 
 impl Passes {
@@ -38,22 +39,18 @@ impl Passes {
             self.values.remove(0);
         }
         self.values.push(values.to_vec());
+        self.count += 1;
     }
 
     /// The missing bounces added to the last pass's `values` (elements of
     /// `areas`), where at least [`SETTLED_PASSES`] + 2 passes ran and the
     /// last two changes shrink steadily: the ratio `r` used, or `None`
     /// (then nothing is added).
-    pub(super) fn add_tail(
-        &self,
-        passes: usize,
-        values: &mut [[f32; 3]],
-        areas: &[f32],
-    ) -> Option<f64> {
+    pub(super) fn add_tail(&self, values: &mut [[f32; 3]], areas: &[f32]) -> Option<f64> {
         let [before_that, before, last] = self.values.as_slice() else {
             return None;
         };
-        if passes < SETTLED_PASSES + 2 || values.len() != areas.len() {
+        if self.count < SETTLED_PASSES + 2 || values.len() != areas.len() {
             return None;
         }
         // The size of a change: its area-weighted sum of magnitudes. The
@@ -104,9 +101,7 @@ mod tests {
             passes.push(&at(k));
         }
         let mut values = at(5);
-        let r = passes
-            .add_tail(6, &mut values, &[1.0, 2.0])
-            .expect("steady");
+        let r = passes.add_tail(&mut values, &[1.0, 2.0]).expect("steady");
         assert!((r - 0.5).abs() < 1e-6, "{r}");
         for (v, l) in values.iter().zip(limit) {
             assert!((v[0] - l).abs() < 1e-5, "{v:?} against {l}");
@@ -116,18 +111,18 @@ mod tests {
     #[test]
     fn too_few_passes_or_a_change_that_does_not_shrink_add_nothing() {
         let mut passes = Passes::default();
-        for k in 0..3 {
+        for k in 0..5 {
             passes.push(&[[k as f32; 3]]);
         }
-        let mut values = [[2.0f32; 3]];
-        // Steady changes of 1: r = 1, no tail.
-        assert_eq!(passes.add_tail(5, &mut values, &[1.0]), None);
+        let mut values = [[4.0f32; 3]];
+        // Five passes, steady changes of 1: r = 1, no tail.
+        assert_eq!(passes.add_tail(&mut values, &[1.0]), None);
         // Three passes: the first changes are not yet bounces.
         let mut halving = Passes::default();
         for v in [0.0f32, 0.5, 0.75] {
             halving.push(&[[v; 3]]);
         }
-        assert_eq!(halving.add_tail(3, &mut values, &[1.0]), None);
-        assert_eq!(values, [[2.0; 3]]);
+        assert_eq!(halving.add_tail(&mut values, &[1.0]), None);
+        assert_eq!(values, [[4.0; 3]]);
     }
 }
