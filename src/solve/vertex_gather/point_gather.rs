@@ -524,12 +524,8 @@ impl Gather<'_> {
                 None => stack.extend_from_slice(&cluster.roots),
             }
         }
-        // A gather that records its links opens deeper
-        // (`VertexGather::link_opening`).
-        let opening = match links {
-            Some(_) => settings.link_opening,
-            None => settings.opening,
-        };
+        // A gather that records its links opens deeper (`link_opening`).
+        let opening = [settings.opening, settings.link_opening][usize::from(links.is_some())];
         while let Some(n) = stack.pop() {
             let node = &self.tree.nodes[n as usize];
             if node.patch == at.patch {
