@@ -547,7 +547,7 @@ pub fn run_scene(
                     &mut meter,
                 ) {
                     None => Shaded::Nothing,
-                    Some(gather) => {
+                    Some(mut gather) => {
                         let shaded = match display.as_mut() {
                             _ if at_pixels => {
                                 let size = job.size;
@@ -563,7 +563,7 @@ pub fn run_scene(
                             }
                             Some(display) => shade_display(
                                 &scene,
-                                &gather,
+                                &mut gather,
                                 display,
                                 job.display_refinements,
                                 &mut meter,

@@ -99,6 +99,10 @@ pub struct GatherFacts {
     /// The return ratio of the bounces added after the last Jacobi pass
     /// (`solve::vertex_gather::tail`), where they were.
     pub tail_ratio: Option<f64>,
+    /// Display points that pooled their hemisphere rays with their
+    /// neighbours', and those of them that sent all their rays after all
+    /// (`solve::vertex_gather::shared_reflected`).
+    pub pooled_rays: (usize, usize),
 }
 
 impl GatherFacts {
@@ -114,6 +118,7 @@ impl GatherFacts {
                 .then(|| gather.hemisphere_rays_on_gpu()),
             camera_rays_on_gpu: at_pixels.then(|| gather.rays_on_gpu()),
             tail_ratio: gather.tail_ratio(),
+            pooled_rays: gather.pooled_rays(),
         }
     }
 }
@@ -185,6 +190,7 @@ impl Report {
             "gather_passes": self.gather_passes,
             "tail_ratio": self.gather.tail_ratio,
             "reflected_reuse": { "reused": self.gather.reflected_reuse.0, "gathered": self.gather.reflected_reuse.1 },
+            "pooled_rays": { "points": self.gather.pooled_rays.0, "sent_all": self.gather.pooled_rays.1 },
             "centres_gathered": self.gather.centres_gathered,
             "direct_light": if self.gather.direct_on_gpu { "gpu" } else { "cpu" },
             "hemisphere_rays": match self.gather.hemisphere_rays {

@@ -104,6 +104,12 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             100.0 * reused as f64 / (reused + gathered) as f64
         );
     }
+    if let (points @ 1.., sent_all) = r.gather.pooled_rays {
+        passes += &format!(
+            "; {:.0}% pooled a quarter of their hemisphere rays with their neighbours' (the rest sent them all)",
+            100.0 * (points - sent_all) as f64 / points as f64
+        );
+    }
     match &r.display_mesh {
         _ if r.gathered_at_pixels.is_some() => {
             let (reflected, direct) = r.gathered_at_pixels.unwrap_or_default();

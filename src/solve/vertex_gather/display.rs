@@ -139,7 +139,7 @@ pub enum Shaded {
 /// leaves out).
 pub fn shade_display(
     scene: &Scene,
-    gather: &FinalGather,
+    gather: &mut FinalGather,
     display: &mut DisplayMesh,
     passes: usize,
     meter: &mut Meter,
@@ -184,6 +184,15 @@ pub fn shade_display(
         if split.is_empty() {
             break;
         }
+        // The new vertices take the light gathered at the centroids.
+        let elements = &display.mesh.elements;
+        cache.remember(
+            scene,
+            split
+                .iter()
+                .map(|&(k, value)| (elements[k].patch, elements[k].centre, value)),
+        );
+        let split: Vec<usize> = split.into_iter().map(|(k, _)| k).collect();
         // Split in place (one triangle into three at its centroid): the
         // mesh stays conforming, no vertex moves, and only the centroids
         // are gathered. (Re-meshing with the centroids inserted made the

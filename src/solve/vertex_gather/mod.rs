@@ -313,6 +313,9 @@ pub struct FinalGather<'a> {
     tail_ratio: Option<f64>,
     /// The scene's smooth surfaces, found once for whoever asks first.
     surfaces: OnceLock<Vec<u32>>,
+    /// Display points that pooled their rays, and those of them that
+    /// sent them all ([`shared_reflected`]).
+    pooled: [usize; 2],
 }
 
 impl<'a> FinalGather<'a> {
@@ -571,6 +574,7 @@ impl<'a> FinalGather<'a> {
             centres_gathered,
             tail_ratio,
             surfaces,
+            pooled: [0; 2],
         })
     }
 
@@ -684,6 +688,7 @@ mod receiver;
 pub mod refine;
 mod reflected_cache;
 mod shared_centres;
+mod shared_reflected;
 mod sources;
 mod tail;
 #[cfg(test)]

@@ -52,8 +52,9 @@ pub struct Checked {
     centres: HashSet<[i64; 3]>,
 }
 
-/// The display elements to split at their centroids (indices), worst
-/// first, at most one per four elements, among those `shown` marks
+/// The display elements to split at their centroids (indices, each with
+/// the light gathered at its centroid, which its new vertex then takes),
+/// worst first, at most one per four elements, among those `shown` marks
 /// (`None`: all; the others' values are not gathered); the centroids
 /// gathered are counted on `meter` (`None`: it stopped them).
 #[allow(clippy::too_many_arguments)]
@@ -66,7 +67,7 @@ pub fn split_points(
     settings: &DisplayRefinement,
     checked: &mut Checked,
     meter: &mut Meter,
-) -> Option<Vec<usize>> {
+) -> Option<Vec<(usize, [f32; 3])>> {
     let place = place_cells(scene);
     // The lowest and highest corner level.
     let corner_range = |k: usize| -> (f32, f32) {
@@ -118,18 +119,18 @@ pub fn split_points(
         .collect();
     meter.total += frames.len();
     let at_centres = gather.at_points_metered(&frames, meter)?;
-    let mut split: Vec<(f32, usize)> = suspects
+    let mut split: Vec<(f32, usize, [f32; 3])> = suspects
         .iter()
         .zip(at_centres)
-        .filter_map(|(&k, centre)| {
-            let centre = luminance(centre);
+        .filter_map(|(&k, value)| {
+            let centre = luminance(value);
             let mean = corner_mean(&display.elements[k], values);
             let gap = (centre - mean).abs();
             (gap > settings.tolerance * centre.max(mean).max(floor))
-                .then(|| (gap * gap * display.elements[k].area, k))
+                .then(|| (gap * gap * display.elements[k].area, k, value))
         })
         .collect();
     split.sort_by(|a, b| b.0.total_cmp(&a.0));
     split.truncate(display.elements.len() / 4);
-    Some(split.into_iter().map(|(_, k)| k).collect())
+    Some(split.into_iter().map(|(_, k, value)| (k, value)).collect())
 }

@@ -389,7 +389,7 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
         source_passes: 0,
         ..VertexGather::default()
     };
-    let gather = FinalGather::new(
+    let mut gather = FinalGather::new(
         &s,
         &solved,
         &tree,
@@ -420,7 +420,7 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     .unwrap();
     assert!(!points.is_empty(), "the shadow's elements are split");
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
-    for &k in &points {
+    for &(k, _) in &points {
         let (patch, p) = (display.elements[k].patch, display.elements[k].centre);
         // Every split is on the floor where the box hides part of the
         // light, or right beside the box; none where the floor sees all.
@@ -1198,4 +1198,74 @@ fn reflected_light_gathered_by_hemisphere_rays_agrees_with_a_brute_force_gather(
     .sqrt();
     eprintln!("per point rel. RMS {:.3}%", 100.0 * rms);
     assert!(rms < 0.05, "per point rel. RMS {:.3}%", 100.0 * rms);
+}
+
+#[test]
+fn display_vertices_that_pool_their_rays_are_no_noisier_than_each_gathering_alone() {
+    // The field of small boxes hung over a floor: hemisphere rays gather
+    // the reflected light. A finer display mesh's floor vertices pool a
+    // quarter of the rays each with their neighbours
+    // ([`shared_reflected`]); against the same points gathered with 16x
+    // the rays, they must be no noisier than each point sending all its
+    // rays alone, and no brighter or darker on the whole.
+    let (s, mesh, b) = boxes_under_a_light(12, 1.0, Vec3::new(0.3, 0.5, 0.3), 0.2);
+    let tree = ShooterTree::new(&s, &mesh);
+    let settings = VertexGather {
+        source_passes: 0,
+        ..VertexGather::default()
+    };
+    let display = uniform(&s, 0.25);
+    let mut gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+    let pooled = gather.at_vertices(&display, &mut VertexCache::default());
+    let (points, sent_all) = gather.pooled_rays();
+    assert!(
+        points > 0 && sent_all < points,
+        "{sent_all} of {points} sent all their rays"
+    );
+    // Floor vertices inside the field, one in two.
+    let mut on_floor = vec![false; display.vertices.len()];
+    for e in display.elements.iter().filter(|e| e.patch == 0) {
+        for &v in e.corners() {
+            on_floor[v as usize] = true;
+        }
+    }
+    let inside = |p: Vec3| p.x > 0.0 && p.x < 11.5 && p.z > 0.0 && p.z < 11.5;
+    let picked: Vec<usize> = (0..display.vertices.len())
+        .filter(|&v| on_floor[v] && inside(display.vertices[v]))
+        .step_by(2)
+        .collect();
+    let frames: Vec<Frame> = picked
+        .iter()
+        .map(|&v| (display.vertices[v], Vec3::Y, 0))
+        .collect();
+    let alone = FinalGather::new(&s, &mesh, &tree, &b, &settings).at_points(&frames);
+    let many_rays = VertexGather {
+        hemisphere_rays: 16 * HEMISPHERE_RAYS,
+        ..settings
+    };
+    let reference = FinalGather::new(&s, &mesh, &tree, &b, &many_rays).at_points(&frames);
+    let rel_rms = |values: &[[f32; 3]]| {
+        let (mut off, mut level) = (0.0f64, 0.0f64);
+        for (x, r) in values.iter().zip(&reference) {
+            off += ((x[0] - r[0]) as f64).powi(2);
+            level += (r[0] as f64).powi(2);
+        }
+        (off / level).sqrt()
+    };
+    let pooled: Vec<[f32; 3]> = picked.iter().map(|&v| pooled[v]).collect();
+    let mean = |values: &[[f32; 3]]| values.iter().map(|x| x[0] as f64).sum::<f64>();
+    let (pooled_rms, alone_rms) = (rel_rms(&pooled), rel_rms(&alone));
+    let bias = mean(&pooled) / mean(&reference) - 1.0;
+    eprintln!(
+        "{} floor vertices: pooled rel. RMS {:.3}%, alone {:.3}%, pooled bias {:+.3}%; {sent_all} of {points} sent all their rays",
+        frames.len(),
+        100.0 * pooled_rms,
+        100.0 * alone_rms,
+        100.0 * bias
+    );
+    assert!(
+        pooled_rms <= 1.05 * alone_rms,
+        "pooled {pooled_rms} alone {alone_rms}"
+    );
+    assert!(bias.abs() < 0.005, "pooled bias {:.3}%", 100.0 * bias);
 }

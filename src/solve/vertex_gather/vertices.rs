@@ -6,10 +6,15 @@
 
 use std::collections::HashMap;
 
+use glam::Vec3;
+
+use super::point_gather::{Gathered, Linking};
+use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
 use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::vertex_frames;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
+use crate::scene::Scene;
 
 /// Gathered values kept by place, so that a refined display mesh gathers
 /// only its new vertices.
@@ -18,13 +23,28 @@ pub struct VertexCache {
     values: HashMap<(u32, [i64; 3]), [f32; 3]>,
 }
 
+impl VertexCache {
+    /// Keeps each value, gathered at its point on its patch, for a
+    /// vertex there.
+    pub fn remember(
+        &mut self,
+        scene: &Scene,
+        gathered: impl Iterator<Item = (u32, Vec3, [f32; 3])>,
+    ) {
+        let place = place_cells(scene);
+        for (patch, point, value) in gathered {
+            self.values.insert((patch, place(point)), value);
+        }
+    }
+}
+
 impl FinalGather<'_> {
     /// Radiosity at every vertex of `display` (any mesh of the same scene;
     /// vertices no element uses get 0). Vertices at one place on patches
     /// that meet below the crease angle are gathered once and show one
     /// value. Places found in `cache` are not gathered again; new ones are
     /// added to it.
-    pub fn at_vertices(&self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
+    pub fn at_vertices(&mut self, display: &Mesh, cache: &mut VertexCache) -> Vec<[f32; 3]> {
         self.at_vertices_metered(display, cache, &mut Meter::unwatched())
             .expect("an unwatched meter never stops")
     }
@@ -32,7 +52,7 @@ impl FinalGather<'_> {
     /// [`FinalGather::at_vertices`], counting its points on `meter`; `None`
     /// when it stops them (the cache keeps what was gathered).
     pub fn at_vertices_metered(
-        &self,
+        &mut self,
         display: &Mesh,
         cache: &mut VertexCache,
         meter: &mut Meter,
@@ -43,7 +63,7 @@ impl FinalGather<'_> {
     /// [`FinalGather::at_vertices_metered`] at the corners of the elements
     /// `shown` marks only (`None`: all); every other vertex gets 0.
     pub fn at_shown_vertices_metered(
-        &self,
+        &mut self,
         display: &Mesh,
         shown: Option<&[bool]>,
         cache: &mut VertexCache,
@@ -90,7 +110,7 @@ impl FinalGather<'_> {
         meter.total = meter
             .total
             .saturating_sub(display.vertices.len() - frames.len());
-        let vals = self.gather.at_points(&frames, None, meter)?;
+        let vals = self.at_display_points(&frames, meter)?;
         for (&g, value) in todo.iter().zip(vals) {
             cache.values.insert(key(groups.members[g].0), value);
         }
@@ -104,5 +124,93 @@ impl FinalGather<'_> {
                 })
                 .collect(),
         )
+    }
+}
+
+impl FinalGather<'_> {
+    /// Radiosity at display points `frames`. In a scene whose reflected
+    /// light hemisphere rays gather, the points pool those rays with
+    /// their neighbours' ([`shared_reflected`](super::shared_reflected)):
+    /// each sends a share of them, and only those the pool leaves short
+    /// send them all.
+    fn at_display_points(&mut self, frames: &[Frame], meter: &mut Meter) -> Option<Vec<[f32; 3]>> {
+        let rays = self.gather.hemisphere_rays.rays;
+        if !self.gather.hemisphere_rays.any() || rays < FIRST_SHARE {
+            return self.gather.at_points(frames, None, meter);
+        }
+        // Every point with a share of the rays, measuring how far its
+        // light holds.
+        self.gather.hemisphere_rays.set_rays(rays / FIRST_SHARE);
+        let first =
+            (self.gather).gather_points(frames, None, Some(true), Linking::None, None, meter);
+        self.gather.hemisphere_rays.set_rays(rays);
+        let mut first: Vec<(Vec3, Gathered)> = first?;
+        let scene = self.gather.scene;
+        let surface = self.surfaces.get_or_init(|| scene.smooth_surfaces());
+        let mut samples: Vec<Sample> = frames
+            .iter()
+            .zip(&first)
+            .map(|(&(point, normal, patch), (_, g))| Sample {
+                point,
+                normal,
+                surface: surface.get(patch as usize).copied().unwrap_or(u32::MAX),
+                reflected: g.reflected,
+                reach: g.reach(),
+                // No reach: the light came from the reflected cache, or
+                // every ray left the scene; either needs no more rays.
+                rays: match g.reach().is_finite() {
+                    true => (rays / FIRST_SHARE) as f32,
+                    false => rays as f32,
+                },
+            })
+            .collect();
+        let sharing = Sharing::new(&samples);
+        let short: Vec<usize> = (0..samples.len())
+            .filter(|&i| sharing.effective_rays(i, &samples) < rays as f32)
+            .collect();
+        self.pooled[0] += samples.len();
+        self.pooled[1] += short.len();
+        // The short ones gather their reflected light again with every
+        // ray (their direct light is known).
+        let again: Vec<Frame> = short.iter().map(|&i| frames[i]).collect();
+        let direct: Vec<Vec3> = short.iter().map(|&i| first[i].1.direct).collect();
+        meter.total += again.len();
+        let regathered =
+            self.gather
+                .gather_points(&again, None, None, Linking::None, Some(&direct), meter)?;
+        for (&i, (_, g)) in short.iter().zip(regathered) {
+            let rho = self.rho_of(frames[i].2);
+            let was = first[i].1.reflected;
+            first[i].0 += rho * (g.reflected - was);
+            first[i].1.reflected = g.reflected;
+            samples[i].reflected = g.reflected;
+            samples[i].rays = rays as f32;
+        }
+        let pooled = sharing.pooled(&samples);
+        Some(
+            first
+                .iter()
+                .zip(frames)
+                .zip(pooled)
+                .map(|(((b, g), frame), pooled)| {
+                    (*b + self.rho_of(frame.2) * (pooled - g.reflected)).to_array()
+                })
+                .collect(),
+        )
+    }
+
+    /// Display points that pooled their hemisphere rays with their
+    /// neighbours', and how many of them sent all their rays after all.
+    pub fn pooled_rays(&self) -> (usize, usize) {
+        (self.pooled[0], self.pooled[1])
+    }
+
+    /// A display point's reflectance: its patch's mean.
+    fn rho_of(&self, patch: u32) -> Vec3 {
+        self.gather
+            .patch_rho
+            .get(patch as usize)
+            .copied()
+            .unwrap_or_default()
     }
 }
