@@ -149,28 +149,23 @@ impl ReflectedCache {
         let Some(PatchRecords { cell, cells }) = self.patches.get(&patch) else {
             return valid;
         };
-        let [x, y, z] = cell_of(p, *cell);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let Some(records) = cells.get(&[x + dx, y + dy, z + dz]) else {
-                        continue;
-                    };
-                    for r in records {
-                        let d = p.distance(r.point);
-                        if d > REACH * r.width {
-                            continue;
-                        }
-                        let turn = (1.0 - n.dot(r.normal)).max(0.0).sqrt();
-                        let error = d / r.reach + turn;
-                        if error < self.reuse {
-                            // Ward's weight less its value at the edge of
-                            // validity; capped, so that a record at the
-                            // point does not make the system singular.
-                            let w = 1.0 / error.max(1e-3 * self.reuse) - 1.0 / self.reuse;
-                            valid.push((r.point, r.reflected, w));
-                        }
-                    }
+        for key in cells_around(p, *cell) {
+            let Some(records) = cells.get(&key) else {
+                continue;
+            };
+            for r in records {
+                let d = p.distance(r.point);
+                if d > REACH * r.width {
+                    continue;
+                }
+                let turn = (1.0 - n.dot(r.normal)).max(0.0).sqrt();
+                let error = d / r.reach + turn;
+                if error < self.reuse {
+                    // Ward's weight less its value at the edge of
+                    // validity; capped, so that a record at the
+                    // point does not make the system singular.
+                    let w = 1.0 / error.max(1e-3 * self.reuse) - 1.0 / self.reuse;
+                    valid.push((r.point, r.reflected, w));
                 }
             }
         }
@@ -185,6 +180,13 @@ const REACH: f32 = 1.5;
 pub(super) fn cell_of(p: Vec3, cell: f32) -> [i64; 3] {
     let q = (p / cell).floor();
     [q.x as i64, q.y as i64, q.z as i64]
+}
+
+/// The 27 cells of a grid `cell` wide around the one that holds `p`.
+pub(super) fn cells_around(p: Vec3, cell: f32) -> impl Iterator<Item = [i64; 3]> {
+    let [x, y, z] = cell_of(p, cell);
+    // x slowest, z fastest: the order nested loops over dx, dy, dz take.
+    (0..27).map(move |k: i64| [x + k / 9 - 1, y + (k / 3) % 3 - 1, z + k % 3 - 1])
 }
 
 /// Sums that give a point's harmonic mean distance to the sources it

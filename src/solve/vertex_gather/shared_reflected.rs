@@ -27,7 +27,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::reflected_cache::cell_of;
+use super::reflected_cache::{cell_of, cells_around};
 
 /// The share of the hemisphere rays every display vertex sends first.
 pub(super) const FIRST_SHARE: usize = 4;
@@ -92,24 +92,18 @@ impl Sharing {
                 if !radius(s).is_finite() {
                     return out;
                 }
-                let [x, y, z] = cell_of(s.point, cell);
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for dz in -1..=1 {
-                            let key = (s.surface, [x + dx, y + dy, z + dz]);
-                            for &j in grid.get(&key).into_iter().flatten() {
-                                let o = &samples[j as usize];
-                                if j as usize == i {
-                                    continue;
-                                }
-                                let reach = s.reach.min(o.reach);
-                                let turn = (1.0 - s.normal.dot(o.normal)).max(0.0).sqrt();
-                                let error = s.point.distance(o.point) / reach + turn;
-                                if error < SHARE_ERROR {
-                                    let w = 1.0 - error / SHARE_ERROR;
-                                    out.push((j, w * w));
-                                }
-                            }
+                for key in cells_around(s.point, cell) {
+                    for &j in grid.get(&(s.surface, key)).into_iter().flatten() {
+                        let o = &samples[j as usize];
+                        if j as usize == i {
+                            continue;
+                        }
+                        let reach = s.reach.min(o.reach);
+                        let turn = (1.0 - s.normal.dot(o.normal)).max(0.0).sqrt();
+                        let error = s.point.distance(o.point) / reach + turn;
+                        if error < SHARE_ERROR {
+                            let w = 1.0 - error / SHARE_ERROR;
+                            out.push((j, w * w));
                         }
                     }
                 }

@@ -144,7 +144,7 @@ impl FinalGather<'_> {
         let first =
             (self.gather).gather_points(frames, None, Some(true), Linking::None, None, meter);
         self.gather.hemisphere_rays.set_rays(rays);
-        let mut first: Vec<(Vec3, Gathered)> = first?;
+        let first: Vec<(Vec3, Gathered)> = first?;
         let scene = self.gather.scene;
         let surface = self.surfaces.get_or_init(|| scene.smooth_surfaces());
         let mut samples: Vec<Sample> = frames
@@ -179,13 +179,11 @@ impl FinalGather<'_> {
             self.gather
                 .gather_points(&again, None, None, Linking::None, Some(&direct), meter)?;
         for (&i, (_, g)) in short.iter().zip(regathered) {
-            let rho = self.rho_of(frames[i].2);
-            let was = first[i].1.reflected;
-            first[i].0 += rho * (g.reflected - was);
-            first[i].1.reflected = g.reflected;
             samples[i].reflected = g.reflected;
             samples[i].rays = rays as f32;
         }
+        // Each first radiosity with its first reflected light swapped
+        // for the pool's.
         let pooled = sharing.pooled(&samples);
         Some(
             first
