@@ -16,8 +16,8 @@ use std::time::Instant;
 mod common;
 
 use common::{arg, device_selector};
+use vkrad::gather::{FinalGather, VertexGather};
 use vkrad::gpu::{Device, DeviceOptions};
-use vkrad::solve::vertex_gather::{FinalGather, VertexGather};
 use vkrad::solve::{solve, ShooterTree, SolveSettings};
 
 fn main() {

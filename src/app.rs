@@ -10,33 +10,34 @@ use serde_json::{json, Value};
 
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
+use crate::gather::display::{shade_display, Shaded};
+use crate::gather::pixels::{PixelPoints, Shade};
+use crate::gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::gpu::{Device, DeviceOptions};
 use crate::mesh;
 use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
+pub use crate::mesh::display::DISPLAY_REFINEMENTS;
+use crate::mesh::display::{display_mesh, DisplayMesh, DisplayRequest};
 use crate::mesh::progress::MeshMeter;
 use crate::output::image_io::save_image;
 use crate::output::tonemap::auto_exposure;
-use crate::render::pixel_gather::{PixelPoints, Shade};
 use crate::render::{default_camera, export_lit_mesh, render_image, seen_elements};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::adaptive::{add_wall, refine_and_resolve, AdaptiveSettings, Solved};
 use crate::solve::progressive::passes_needed;
 use crate::solve::solution::{add_ambient, add_ambient_to_elements};
-pub use crate::solve::vertex_gather::display::DISPLAY_REFINEMENTS;
-use crate::solve::vertex_gather::display::{
-    display_mesh, shade_display, DisplayMesh, DisplayRequest, Shaded,
-};
-use crate::solve::vertex_gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::solve::{solve, FormFactorMethod, Progress, ShooterTree, SolveSettings};
 use crate::trace::{cat, span_since, Trace};
 
 mod memory;
 mod report;
+mod tuning;
 pub use memory::{
     peak_resident_bytes, run_estimate, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog,
 };
 pub use report::{write_report, GatherFacts, Report};
+pub use tuning::{tune, TuningKey, TUNING};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -99,16 +100,26 @@ pub struct Job {
     pub exposure: Option<f32>,
 }
 
-/// The default `--stop-error`: the share of the radiosity shown that the
+/// The default `--tune stop_error`: the share of the radiosity shown that the
 /// light still unshot may be when the solve stops.
 pub const DEFAULT_STOP_ERROR: f64 = 0.005;
 
 impl Job {
-    /// The job `vkrad SCENE` runs: every default here is the command
-    /// line's, which only overrides them.
+    /// The job `vkrad SCENE` runs: [`Job::default`] on `scene`.
     pub fn new(scene: impl Into<String>) -> Self {
         Job {
             scene: scene.into(),
+            ..Job::default()
+        }
+    }
+}
+
+impl Default for Job {
+    /// Every default of `vkrad`, written once: the command line and
+    /// `--tune` only override them (`vkrad help tuning` reads them here).
+    fn default() -> Self {
+        Job {
+            scene: String::new(),
             output: None,
             export: None,
             device: DeviceOptions::default(),
@@ -271,7 +282,7 @@ fn display_request(job: &Job) -> DisplayRequest {
 }
 
 /// Whether `job` gathers its image at the pixels ([`Shade`]): only after a
-/// final gather, and not with `--adaptive` (which shows its own mesh).
+/// final gather, and not with `--tune adaptive` (which shows its own mesh).
 fn gathers_at_pixels(job: &Job, scene: &Scene) -> bool {
     job.final_gather.is_some()
         && job.adaptive == 0
@@ -304,7 +315,7 @@ pub fn run_scene(
 
     if job.adaptive > 0 && job.mesher == Mesher::Uniform {
         return Err(Error::Invalid(
-            "--adaptive refines discontinuity meshes: add --mesh discontinuity".into(),
+            "--tune adaptive refines discontinuity meshes: add --mesh discontinuity".into(),
         ));
     }
     let device = match device {

@@ -101,7 +101,7 @@ fn hint_suffix(hint: &Option<String>) -> String {
 fn device_lost_hint(result: vk::Result) -> &'static str {
     match result {
         vk::Result::ERROR_DEVICE_LOST => {
-            " (the GPU driver reset the device; try a smaller --hemicube-res or --max-edge, or another --device)"
+            " (the GPU driver reset the device; try a smaller --tune hemicube_res or --max-edge, or another --device)"
         }
         vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
             " (out of memory; try a coarser mesh with a larger --max-edge)"

@@ -8,6 +8,7 @@ pub mod app;
 pub mod bench;
 pub mod error;
 pub mod formfactor;
+pub mod gather;
 pub mod geom;
 pub mod gpu;
 pub mod mesh;

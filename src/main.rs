@@ -19,6 +19,8 @@ fn main() -> ExitCode {
         Some(Command::Formfactors(args)) => commands::formfactors(args),
         Some(Command::Mesh(args)) => commands::mesh_only(args),
         Some(Command::Bench(args)) => commands::bench(args),
+        Some(Command::Profile(args)) => commands::profile(args),
+        Some(Command::Help { topic }) => commands::help(topic.as_deref()),
         None => commands::render(cli.render),
     };
     match result {

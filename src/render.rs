@@ -13,7 +13,6 @@ use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::{Camera, Scene};
 
-pub mod pixel_gather;
 mod seen;
 mod textured;
 pub use seen::seen_elements;

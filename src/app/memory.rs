@@ -15,13 +15,13 @@
 
 use super::{display_request, gathers_at_pixels, mesh_settings, Job};
 use crate::error::{Error, Result};
+use crate::gather::pixels::silhouettes_refined;
+use crate::gather::LINKS_BUDGET;
 use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
+use crate::mesh::display::DisplayRequest;
 use crate::mesh::element_count;
-use crate::render::pixel_gather::silhouettes_refined;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
-use crate::solve::vertex_gather::display::DisplayRequest;
-use crate::solve::vertex_gather::LINKS_BUDGET;
 
 /// The process, the Vulkan device and its pipelines, the hemicube's
 /// targets: 95-107 MB after the solve of every scene up to 12,544
@@ -51,7 +51,7 @@ const GATHER_BYTES_PER_ELEMENT: u64 = 3584;
 /// and the reflected light's points and weights.
 const PIXEL_GATHER_BYTES_PER_PIXEL: u64 = 512;
 /// The same where the silhouettes take more samples
-/// ([`crate::render::pixel_gather::silhouettes_refined`]): a silhouette
+/// ([`crate::gather::pixels::silhouettes_refined`]): a silhouette
 /// pixel's 64 direct points. Over the corpus at 256x256, 15 direct points
 /// a pixel on `rfield` (+46 MB of peak) and 27 on the 204k field: 32 a
 /// pixel at 70 bytes, fitted, not derived (a frame of silhouettes alone
@@ -269,11 +269,11 @@ impl RunEstimate {
         let largest = self.largest();
         let hint = match largest.stage {
             "display mesh" => {
-                "use a larger --display-edge, --display-mesh uniform, or --no-final-gather"
+                "use a larger --tune display_edge, --tune display_mesh uniform, or --tune final_gather=false"
             }
             "mesh" => "use a larger --max-edge (elements grow as 1 / max-edge^2)",
-            "gather" => "use a larger --max-edge (the gather holds about 6 KB a solved element), or --no-final-gather",
-            "visibility" => "use a smaller --dm-res",
+            "gather" => "use a larger --max-edge (the gather holds about 6 KB a solved element), or --tune final_gather=false",
+            "visibility" => "use a smaller --tune dm_res",
             "render" => "render a smaller --size",
             _ => "free memory, or use a machine with more",
         };
@@ -380,7 +380,7 @@ mod tests {
             "{err}"
         );
         // A discontinuity display mesh adds the visibility pass's targets
-        // (4096 x 4096 at --dm-res 128) and a bound on its shadow lines.
+        // (4096 x 4096 at --tune dm_res=128) and a bound on its shadow lines.
         let d = RunEstimate::new(
             &s,
             &shape(

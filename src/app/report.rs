@@ -5,12 +5,12 @@ use std::path::{Path, PathBuf};
 
 use super::Job;
 use crate::error::{Error, Result};
+use crate::gather::FinalGather;
 use crate::gpu::StageTimes;
 use crate::mesh::build::MeshReport;
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
 use crate::scene::Scene;
-use crate::solve::vertex_gather::FinalGather;
 use crate::solve::Solution;
 
 /// What a run did, for the summary and for tests.
@@ -35,10 +35,10 @@ pub struct Report {
     /// What the whole run was estimated to hold at its peak (the mesh's
     /// own estimate in `memory.mesh`).
     pub memory: super::RunEstimate,
-    /// Element counts of every mesh solved (more than one with --adaptive).
+    /// Element counts of every mesh solved (more than one with --tune adaptive).
     pub adaptive_elements: Vec<usize>,
     /// The estimated relative RMS interpolation error of every mesh solved
-    /// with --adaptive (all but the last drive a refinement pass; the last
+    /// with --tune adaptive (all but the last drive a refinement pass; the last
     /// is measured after it).
     pub adaptive_errors: Vec<f64>,
     pub solution: Solution,
@@ -69,7 +69,7 @@ pub struct Report {
     /// What the final gather did, as it says of itself.
     pub gather: GatherFacts,
     /// Where the image was gathered at its pixels
-    /// ([`crate::render::pixel_gather`]) rather than drawn from a mesh's
+    /// ([`crate::gather::pixels`]) rather than drawn from a mesh's
     /// vertex values: the points its reflected light and its direct light
     /// were gathered at.
     pub gathered_at_pixels: Option<(usize, usize)>,
@@ -80,28 +80,28 @@ pub struct Report {
 #[derive(Debug, Clone, Default)]
 pub struct GatherFacts {
     /// Display points that took the light reflected onto them from the
-    /// element centres, and points that gathered it (`--reflected-reuse`).
+    /// element centres, and points that gathered it (`--tune reflected_reuse`).
     pub reflected_reuse: (usize, usize),
     /// Element centres the final gather traced rays from (each once: the
     /// later Jacobi passes reuse their links; small elements of a smooth
     /// surface share one).
     pub centres_gathered: usize,
     /// Whether the GPU gathered the emitters' direct light
-    /// (`--direct-light`).
+    /// (`--tune direct_light`).
     pub direct_on_gpu: bool,
     /// Whether hemisphere rays gathered the reflected light (a scene of
     /// small patches), and then whether they were traced on the GPU
-    /// (`--ray-device`).
+    /// (`--tune ray_device`).
     pub hemisphere_rays: Option<bool>,
     /// Whether the image was gathered at its pixels, and then whether its
-    /// camera rays were traced on the GPU (`--ray-device`).
+    /// camera rays were traced on the GPU (`--tune ray_device`).
     pub camera_rays_on_gpu: Option<bool>,
     /// The return ratio of the bounces added after the last Jacobi pass
-    /// (`solve::vertex_gather::tail`), where they were.
+    /// (`gather::tail`), where they were.
     pub tail_ratio: Option<f64>,
     /// Display points that pooled their hemisphere rays with their
     /// neighbours', and those of them that sent all their rays after all
-    /// (`solve::vertex_gather::shared_reflected`).
+    /// (`gather::shared_reflected`).
     pub pooled_rays: (usize, usize),
 }
 

@@ -13,7 +13,7 @@
 //!   (hierarchical hemicube solve on the CLI's default mesh to the default
 //!   stop rule, discontinuity display mesh, final gather at its vertices),
 //!   at the default edges and at 2x and 4x them (quick: 4x only;
-//!   `--max-edge`, `--display-edge`), timed as the whole run ([`crate::app::run_scene`]:
+//!   `--max-edge`, `--tune display_edge`), timed as the whole run ([`crate::app::run_scene`]:
 //!   meshing, solve, display mesh, gather, render, write).
 //!
 //! The three sweeps show the **raw** solutions: element-by-element solves
@@ -170,7 +170,7 @@ pub struct SweepPlan {
     /// Hemicube resolution of the element-size sweep.
     pub element_size_res: u32,
     /// Multiples of the default pipeline's edges (`--max-edge` and
-    /// `--display-edge`), coarsest first; 1 is `vkrad SCENE` as it is.
+    /// `--tune display_edge`), coarsest first; 1 is `vkrad SCENE` as it is.
     pub default_factors: Vec<f32>,
     pub max_elements: usize,
     /// Rays from every sample of the reference's gather to the emitters.
@@ -518,13 +518,13 @@ pub fn load_bench_scene(arg: &str) -> Result<Scene> {
 }
 
 /// `vkrad SCENE` at its defaults (as `cli::commands::render` builds the
-/// job), its edges (`--max-edge`, `--display-edge`) times `factor`,
+/// job), its edges (`--max-edge`, `--tune display_edge`) times `factor`,
 /// rendering the bench's error image to `scratch`.
 pub fn default_job(scene: &Scene, factor: f32, scratch: &Path) -> Job {
     let mut job = Job::new(scene.name.clone());
     job.solve = SolveSettings {
         // The CLI's default stop rule: the unshot share after the gather's
-        // passes (--stop-error 0.005), with a floor far below it.
+        // passes (--tune stop_error=0.005), with a floor far below it.
         converge: 1e-6,
         unshot_share: Some(0.005),
         ..SolveSettings::default()

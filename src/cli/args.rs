@@ -3,30 +3,31 @@
 
 use std::path::PathBuf;
 
-use anyhow::{bail, Result};
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
-use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
 
 use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::DeviceOptions;
-use vkrad::mesh::build::Mesher;
-use vkrad::render::pixel_gather::Shade;
-use vkrad::solve::{FormFactorMethod, HierarchyRule, Shooting};
+use vkrad::solve::FormFactorMethod;
 
 #[derive(Parser)]
 #[command(
     name = "vkrad",
     version,
-    about = "Progressive-refinement radiosity on Vulkan: GPU hemicube form factors, compute-shader shooting.",
-    long_about = "Progressive-refinement radiosity on Vulkan.\n\n\
+    about = "Radiosity on Vulkan: progressive refinement, GPU hemicube form factors, discontinuity meshing, a final gather.",
+    long_about = "Radiosity on Vulkan.\n\n\
         `vkrad SCENE` loads an OBJ scene (MTL Kd = diffuse reflectance, Ke = emitted radiance), \
-        meshes it, solves it with GPU hemicubes and compute-shader shooting, and writes SCENE.png. \
+        meshes it, solves it by progressive refinement (GPU hemicubes, compute-shader shooting), \
+        gathers the light the image shows from the solution, and writes SCENE.png. \
         SCENE is a path or a built-in scene name (cornell, simple, r, vise, rfield).\n\n\
         Pixels and exported radiance are L = B / pi, so a converged diffuse path tracer with \
         emitter radiance Ke gives the same numbers.",
+    after_help = "Expert settings: --tune KEY=VALUE; `vkrad help tuning` lists every key with its default.\n\
+        GPU timings, traces and captures: `vkrad profile SCENE`. VKRAD_VALIDATE=1 turns the \
+        Khronos validation layer on for any command.",
     args_conflicts_with_subcommands = true,
-    subcommand_negates_reqs = true
+    subcommand_negates_reqs = true,
+    disable_help_subcommand = true
 )]
 pub(crate) struct Cli {
     #[command(subcommand)]
@@ -48,6 +49,15 @@ pub(crate) enum Command {
     /// mesh-free gathered reference; writes bench.json, bench.csv,
     /// bench.svg, bench.png.
     Bench(BenchArgs),
+    /// Run `vkrad SCENE ...` for GPU profiling: the per-pass timestamp
+    /// table, and on request a Perfetto timeline or a RenderDoc capture.
+    Profile(ProfileArgs),
+    /// Help on a topic: `tuning` (every --tune key, its default and what it
+    /// changes) or a subcommand's name.
+    Help {
+        /// `tuning`, or a subcommand (devices, formfactors, mesh, bench, profile).
+        topic: Option<String>,
+    },
 }
 
 #[derive(Args)]
@@ -61,54 +71,17 @@ pub(crate) struct DeviceArgs {
     pub(crate) validate: bool,
 }
 
-#[derive(Args)]
-pub(crate) struct MeshArgs {
-    /// Maximum element edge length, in scene units (default: scene diagonal / 24).
-    #[arg(long, value_name = "LENGTH")]
-    pub(crate) max_edge: Option<f32>,
-    /// Hemicube top-face resolution in pixels (even, 2..8192).
-    #[arg(long, default_value_t = 256, value_name = "PIXELS")]
-    pub(crate) hemicube_res: u32,
-    /// Mesher: uniform quadtree, or discontinuity meshing (shadow boundaries
-    /// from every emitter vertex and edge, subdivided to --max-edge unless
-    /// --no-subdivide).
-    #[arg(long = "mesh", value_enum, default_value_t = MesherArg::Uniform)]
-    pub(crate) mesher: MesherArg,
-    /// Discontinuity meshing without subdividing its elements to --max-edge
-    /// (the thesis's mesh: shadow boundaries only).
-    #[arg(long, alias = "no-refine")]
-    pub(crate) no_subdivide: bool,
-    /// Tile side in pixels of the discontinuity mesher's GPU visibility pass.
-    #[arg(long, default_value_t = 128, value_name = "PIXELS")]
-    pub(crate) dm_res: u32,
-    /// Form factors: GPU hemicube, CPU ray tracing (vertex-to-source), or
-    /// exact unoccluded point-to-polygon (scenes where nothing blocks).
-    #[arg(long, value_enum, default_value_t = FfArg::Hemicube)]
-    pub(crate) ff: FfArg,
-    /// Rays per receiver vertex for --ff raytrace.
-    #[arg(long, default_value_t = 64, value_name = "N")]
-    pub(crate) rays: usize,
-}
-
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub(crate) enum MesherArg {
     Uniform,
     Discontinuity,
 }
 
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub(crate) enum DirectLightArg {
-    Auto,
-    Cpu,
-    Gpu,
-}
-
-impl DirectLightArg {
-    pub(crate) fn direct_light(self) -> DirectLight {
+impl MesherArg {
+    pub(crate) fn name(self) -> &'static str {
         match self {
-            DirectLightArg::Auto => DirectLight::Auto,
-            DirectLightArg::Cpu => DirectLight::Cpu,
-            DirectLightArg::Gpu => DirectLight::Gpu,
+            MesherArg::Uniform => "uniform",
+            MesherArg::Discontinuity => "discontinuity",
         }
     }
 }
@@ -116,36 +89,9 @@ impl DirectLightArg {
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub(crate) enum ShadeArg {
     Auto,
-    Mesh,
     Pixels,
-}
-
-impl ShadeArg {
-    pub(crate) fn shade(self) -> Shade {
-        match self {
-            ShadeArg::Auto => Shade::Auto,
-            ShadeArg::Mesh => Shade::Mesh,
-            ShadeArg::Pixels => Shade::Pixels,
-        }
-    }
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-pub(crate) enum ShootingArg {
-    Hierarchical,
-    Element,
-}
-
-impl RenderArgs {
-    pub(crate) fn shooting(&self) -> Shooting {
-        match self.shooting {
-            ShootingArg::Hierarchical => Shooting::Hierarchical(HierarchyRule {
-                max_share: self.max_share,
-                uniformity: self.uniformity,
-            }),
-            ShootingArg::Element => Shooting::Element,
-        }
-    }
+    Mesh,
+    Wireframe,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -155,27 +101,15 @@ pub(crate) enum FfArg {
     Analytic,
 }
 
-impl MesherArg {
-    pub(crate) fn mesher(self, subdivide: bool) -> Mesher {
+impl FfArg {
+    pub(crate) fn method(self) -> FormFactorMethod {
         match self {
-            MesherArg::Uniform => Mesher::Uniform,
-            MesherArg::Discontinuity => Mesher::Discontinuity { subdivide },
-        }
-    }
-}
-
-impl MeshArgs {
-    pub(crate) fn mesher(&self) -> Mesher {
-        self.mesher.mesher(!self.no_subdivide)
-    }
-
-    pub(crate) fn method(&self) -> Result<FormFactorMethod> {
-        Ok(match self.ff {
             FfArg::Hemicube => FormFactorMethod::Hemicube,
-            FfArg::Raytrace if self.rays == 0 => bail!("--rays must be at least 1"),
-            FfArg::Raytrace => FormFactorMethod::RayTrace { rays: self.rays },
+            FfArg::Raytrace => FormFactorMethod::RayTrace {
+                rays: FormFactorMethod::DEFAULT_RAYS,
+            },
             FfArg::Analytic => FormFactorMethod::Analytic,
-        })
+        }
     }
 }
 
@@ -188,53 +122,16 @@ pub(crate) struct RenderArgs {
     /// Default: SCENE_NAME.png in the current folder.
     #[arg(short, long, value_name = "FILE")]
     pub(crate) output: Option<PathBuf>,
-    /// Also write the lit mesh: .ply (x y z, red green blue, radiosity_r/g/b), .obj, or glTF 2.0 (.glb binary, .gltf with the buffer embedded: POSITION, NORMAL, COLOR_0 at the image's exposure, _RADIOSITY linear).
+    /// Also write the lit mesh, the view-independent solution: .ply, .obj,
+    /// or glTF 2.0 (.glb, .gltf): positions, normals, colours at the
+    /// image's exposure, and linear radiosity.
     #[arg(long, value_name = "FILE")]
     pub(crate) export: Option<PathBuf>,
-    #[command(flatten)]
-    pub(crate) mesh: MeshArgs,
-    /// Stop when the light still unshot is below this fraction of the
-    /// radiosity the image shows: the error stopping leaves in the written
-    /// mesh (the image's ambient term makes up most of it). The default
-    /// needs no tuning; --converge overrides it.
-    #[arg(long, default_value_t = vkrad::app::DEFAULT_STOP_ERROR, value_name = "FRACTION")]
-    pub(crate) stop_error: f64,
-    /// Stop instead when the unshot power is below this fraction of the
-    /// emitted power.
-    #[arg(long, value_name = "FRACTION")]
-    pub(crate) converge: Option<f64>,
-    /// Stop after this many shots at the latest.
-    #[arg(long, default_value_t = 100_000, value_name = "N")]
-    pub(crate) max_shots: usize,
-    /// Who shoots: regions of the shooting hierarchy (a patch, or part of
-    /// one, whose unshot light is even and not too strong, with exact
-    /// near-field form factors), or one element at a time (the classic
-    /// progressive refinement; always so with --ff raytrace|analytic).
-    #[arg(long, value_enum, default_value_t = ShootingArg::Hierarchical)]
-    pub(crate) shooting: ShootingArg,
-    /// Hierarchical shooting: a region's shot carries at most this share
-    /// of all the unshot power.
-    #[arg(long, default_value_t = HierarchyRule::default().max_share, value_name = "FRACTION")]
-    pub(crate) max_share: f64,
-    /// Hierarchical shooting: no element of a shooting region may be more
-    /// than this many times brighter or dimmer (unshot) than its mean.
-    #[arg(long, default_value_t = HierarchyRule::default().uniformity, value_name = "RATIO")]
-    pub(crate) uniformity: f64,
-    /// Shot batches in flight at once: 2 lets the CPU pick and record the
-    /// next batch while the GPU shoots the last one (each shooter's light
-    /// is read on the GPU as it shoots, so nothing is lost); 1 waits for
-    /// every batch before picking the next. Default: 2 on a GPU, 1 on a CPU
-    /// device (lavapipe), whose passes run on the same cores as the CPU's
-    /// own work.
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(1..=2))]
-    pub(crate) in_flight: Option<u8>,
-    /// Every shot renders its hemicube at --hemicube-res. Default: a shot
-    /// takes the resolution its power needs, from --hemicube-res for the
-    /// strongest down to a quarter of it for dim interreflection shots
-    /// (resolution proportional to the square root of the shot's power).
-    #[arg(long)]
-    pub(crate) fixed_hemicube: bool,
-    /// Camera position (with --look-at; default: the scene's camera or an automatic one).
+    /// Image size [default: 800x800].
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    pub(crate) size: Option<(u32, u32)>,
+    /// Camera position (default: the scene's `# vkrad camera` line, or an
+    /// automatic view of the whole scene).
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
     pub(crate) eye: Option<Vec3>,
     /// Point the camera looks at.
@@ -246,164 +143,61 @@ pub(crate) struct RenderArgs {
     /// Vertical field of view in degrees.
     #[arg(long, value_name = "DEGREES")]
     pub(crate) fov: Option<f32>,
-    /// Image size.
-    #[arg(long, default_value = "800x800", value_name = "WxH", value_parser = parse_size)]
-    pub(crate) size: (u32, u32),
-    /// Exposure multiplier for PNG/PLY colours (default: automatic, 99th percentile -> white).
+    /// Exposure multiplier for PNG and exported colours (default: automatic,
+    /// the 99th percentile to white).
     #[arg(long)]
     pub(crate) exposure: Option<f32>,
-    /// A-posteriori refinement passes (with --mesh discontinuity): split
-    /// the elements where the shaded image is furthest from the radiosity
-    /// gathered at their centroid, solve again. Each pass at most doubles
-    /// the mesh.
-    #[arg(long, default_value_t = 0, value_name = "PASSES")]
-    pub(crate) adaptive: usize,
-    /// With --adaptive: split elements whose centroid error exceeds this
-    /// fraction of the mean radiosity of the lit surfaces.
-    #[arg(
-        long,
-        default_value_t = 0.02,
-        value_name = "FRACTION",
-        alias = "gradient"
-    )]
-    pub(crate) tolerance: f32,
-    /// With --adaptive: stop refining before the mesh passes this many
-    /// elements (the worst elements are split first).
-    #[arg(long, value_name = "N")]
-    pub(crate) max_elements: Option<usize>,
-    /// Show an unfinished solution (max shots reached, Ctrl-C) without the
-    /// ambient term (Cohen et al. 1988) that stands in for unshot light.
-    #[arg(long)]
-    pub(crate) no_ambient: bool,
-    /// Show the solver's own vertex values (neighbouring elements averaged,
-    /// or the CPU methods' per-vertex form factors) instead of the final
-    /// gather: every vertex's radiosity gathered from the solved elements
-    /// with exact form factors and ray-traced visibility. Biased at
-    /// corners, contacts and shadow edges. Faster on scenes of a few
-    /// patches; on many, the solve must then shoot the light away on its
-    /// own (--stop-error), which takes thousands of shots (rfield: over
-    /// 20 minutes on 2 cores): bound it with --max-shots or --converge.
-    #[arg(long)]
-    pub(crate) no_final_gather: bool,
-    /// Jacobi passes of the final gather at the element centres before the
-    /// vertices: each corrects the solved element values with exact form
-    /// factors (their error shrinks by about the mean reflectance per pass).
-    /// After four or more, the bounces past the last are added as a
-    /// geometric tail at the ratio the last passes shrank by.
-    #[arg(long, default_value_t = VertexGather::default().source_passes, value_name = "N")]
-    pub(crate) gather_passes: usize,
-    /// How far a display point may take the light reflected onto it from
-    /// the element centres of the last Jacobi pass instead of gathering
-    /// it (Ward's irradiance-cache error bound: distance over the
-    /// reflecting surfaces' harmonic mean distance, plus the turn of the
-    /// normal); it still gathers its direct light. 0: every point gathers
-    /// all of its light.
-    #[arg(long, default_value_t = VertexGather::default().reuse, value_name = "ERROR")]
-    pub(crate) reflected_reuse: f32,
-    /// Where the final gather traces the emitters' direct light: on the
-    /// GPU (a compute pass over a BVH in storage buffers) or on the CPU
-    /// beside the reflected light. auto: the GPU unless the device is
-    /// the CPU itself (lavapipe, where the pass is 3-6x slower).
-    #[arg(long, value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
-    pub(crate) direct_light: DirectLightArg,
-    /// Trace rays again in every Jacobi pass at the element centres
-    /// instead of reusing the sources and visible form factors the first
-    /// pass found (slower; the same answer but for how the first pass
-    /// opened the hierarchy; for comparison).
-    #[arg(long)]
-    pub(crate) retrace_passes: bool,
-    /// Take the emitters' light on a solved element at its centre, and lend
-    /// it to near points at that one value, instead of averaging it over
-    /// the element and taking it where the gather's rays meet a near
-    /// element (the former way: a floor element half in a letter's shadow
-    /// lends the letter beside it whatever its centre reads; for
-    /// comparison).
-    #[arg(long)]
-    pub(crate) source_means: bool,
-    /// Gather the light reflected onto every solved element at its own
-    /// centre in the Jacobi passes, instead of once for the small elements
-    /// of a smooth surface in a cell as wide as the largest element (each
-    /// still keeps its own direct light; for comparison; the shared
-    /// gather needs the emitters' light averaged per element, so
-    /// --source-means implies this).
-    #[arg(long)]
-    pub(crate) own_centres: bool,
-    /// Rays a gathered point sends over its hemisphere for the reflected
-    /// light, in a scene of small patches (patches under a thousandth of
-    /// its area hold 1% of it: letters, tessellated curves, scans),
-    /// instead of visiting each patch as a source. The emitters' direct
-    /// light is always gathered exactly, and so is everything in a scene
-    /// of a few large patches. 0: visit every patch (for comparison).
-    #[arg(long, default_value_t = VertexGather::default().hemisphere_rays, value_name = "N")]
-    pub(crate) hemisphere_rays: usize,
-    /// Where the final gather's first-hit rays are traced: the image's
-    /// camera rays, and the hemisphere rays (--hemisphere-rays) of the
-    /// element centres, the display vertices and the pixels. On the GPU (a
-    /// compute pass over a BVH in storage buffers) or the CPU; the same
-    /// rays either way. auto: the GPU unless the device is the CPU itself
-    /// (lavapipe, where the pass is slower than the CPU's rays: on rfield
-    /// 2.6x for the hemisphere rays, `cargo bench --bench gpu_rays`, and
-    /// 2.9x for the camera rays). Also --hemisphere-device.
-    #[arg(long, alias = "hemisphere-device", value_enum, value_name = "WHERE", default_value_t = DirectLightArg::Auto)]
-    pub(crate) ray_device: DirectLightArg,
-    /// Where the final gather shades the image. pixels: at the points each
-    /// pixel's samples see (the reflected light once per patch in small
-    /// blocks of pixels, the direct light at 4 samples a pixel up to
-    /// 256x256 and 16 more across shadow edges, 1 a pixel beyond), so every
-    /// shadow is as sharp as the image. mesh: at the vertices of a display
-    /// mesh (--display-mesh, --display-edge), interpolated between them;
-    /// what --export writes. auto: pixels, unless the lit mesh is exported
-    /// (--export) or drawn (--wireframe), or the scene has textures (the
-    /// pixels read their patch's mean colour).
-    #[arg(long, value_enum, value_name = "WHERE", default_value_t = ShadeArg::Auto)]
-    pub(crate) shade: ShadeArg,
-    /// Longest element edge of the display mesh, whose vertices the final
-    /// gather shades from the elements solved at --max-edge (default: half
-    /// the default --max-edge; at most --max-edge).
+    /// Longest element edge of the solve, in scene units (default: the
+    /// scene's diagonal / 24).
     #[arg(long, value_name = "LENGTH")]
-    pub(crate) display_edge: Option<f32>,
-    /// Mesher of the display mesh: discontinuity puts shadow and contact
-    /// boundaries into it, so the image shows them sharp.
-    #[arg(long, value_enum, value_name = "MESHER", default_value_t = MesherArg::Discontinuity)]
-    pub(crate) display_mesh: MesherArg,
-    /// Passes that split discontinuity display elements where the value
-    /// gathered at their centroid is off the Gouraud one by over 5% of the
-    /// local level (penumbrae, skinny elements between shadow lines);
-    /// 0 turns refinement off.
-    #[arg(long, default_value_t = vkrad::app::DISPLAY_REFINEMENTS, value_name = "N")]
-    pub(crate) display_refinements: usize,
-    /// Draw the mesh edges over the image (black lines).
-    #[arg(long)]
-    pub(crate) wireframe: bool,
-    /// Skip the mesh sanity check (orientation, planes, area, T-junctions).
-    #[arg(long)]
-    pub(crate) no_check_mesh: bool,
-    /// Print the GPU time per pass (Vulkan timestamps: count, total, mean,
-    /// share). Only then are timestamps written; without it each submission
-    /// is timed once on the CPU.
-    #[arg(long)]
-    pub(crate) profile: bool,
-    /// Write settings, results and per-pass timings as JSON.
+    pub(crate) max_edge: Option<f32>,
+    /// Form factors of the solve: GPU hemicube, CPU ray tracing from each
+    /// receiver vertex (Wallace 1989), or exact unoccluded point-to-polygon
+    /// (only for scenes where nothing blocks) [default: hemicube].
+    #[arg(long, value_enum)]
+    pub(crate) ff: Option<FfArg>,
+    /// Where the image is shaded. pixels: gathered at the points each pixel
+    /// sees, so every shadow is as sharp as the image. mesh: the lit
+    /// display mesh, interpolated (what --export writes). wireframe: the
+    /// mesh with its edges drawn. auto: pixels, unless the lit mesh is
+    /// exported or the scene has textures [default: auto].
+    #[arg(long, value_enum, value_name = "WHERE")]
+    pub(crate) shade: Option<ShadeArg>,
+    /// Write settings, results and per-stage timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub(crate) report: Option<PathBuf>,
-    /// Write a timeline of the run in the Chrome trace-event format
-    /// (Perfetto, chrome://tracing): the CPU stages and each batch's pick,
-    /// record, submit and wait, and every submission's GPU passes on the
-    /// CPU clock (GPU timestamps are written, as with --profile).
-    #[arg(long, value_name = "FILE.json")]
-    pub(crate) trace: Option<PathBuf>,
-    /// Capture shot N (the submission of its batch; shots count from 0 as
-    /// the trace and the labels name them) or the final render (`render`)
-    /// as one RenderDoc frame, through RenderDoc's in-application API:
-    /// launch vkrad under RenderDoc, or put librenderdoc.so on the library
-    /// path.
-    #[arg(long, value_name = "N|render", value_parser = parse_capture)]
-    pub(crate) capture: Option<CaptureTarget>,
+    /// Vulkan device: an index or a name substring from `vkrad devices`
+    /// (default: the first discrete GPU, else integrated, else the CPU).
+    #[arg(long, value_name = "INDEX|NAME")]
+    pub(crate) device: Option<String>,
     /// Print nothing but errors.
     #[arg(short, long)]
     pub(crate) quiet: bool,
+    /// An expert setting, KEY=VALUE (repeatable): `vkrad help tuning`
+    /// lists every key with its default.
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub(crate) tune: Vec<String>,
+}
+
+#[derive(Args)]
+pub(crate) struct ProfileArgs {
     #[command(flatten)]
-    pub(crate) gpu: DeviceArgs,
+    pub(crate) render: RenderArgs,
+    /// Write a timeline of the run in the Chrome trace-event format
+    /// (Perfetto, chrome://tracing): the CPU stages, each batch's pick,
+    /// record, submit and wait, and every submission's GPU passes on the
+    /// CPU clock.
+    #[arg(long, value_name = "FILE.json")]
+    pub(crate) trace: Option<PathBuf>,
+    /// Capture shot N (the submission of its batch; shots count from 0 as
+    /// the trace names them) or the final render (`render`) as one
+    /// RenderDoc frame: launch vkrad under RenderDoc, or put
+    /// librenderdoc.so on the library path.
+    #[arg(long, value_name = "N|render", value_parser = parse_capture)]
+    pub(crate) capture: Option<CaptureTarget>,
+    /// Enable the Khronos validation layer; any validation error fails the run.
+    #[arg(long)]
+    pub(crate) validate: bool,
 }
 
 #[derive(Args)]
@@ -440,8 +234,18 @@ pub(crate) struct MeshOnlyArgs {
     /// Output mesh: .obj or .ply.
     #[arg(short, long, value_name = "FILE")]
     pub(crate) output: PathBuf,
-    #[command(flatten)]
-    pub(crate) mesh: MeshArgs,
+    /// Mesher: uniform quadtree, or discontinuity meshing (shadow
+    /// boundaries from every emitter vertex and edge, thesis ch. 4)
+    /// [default: uniform].
+    #[arg(long = "mesh", value_enum)]
+    pub(crate) mesher: Option<MesherArg>,
+    /// Longest element edge, in scene units (default: the scene's diagonal / 24).
+    #[arg(long, value_name = "LENGTH")]
+    pub(crate) max_edge: Option<f32>,
+    /// An expert setting, KEY=VALUE (repeatable; `vkrad help tuning`):
+    /// here subdivide, dm_res.
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub(crate) tune: Vec<String>,
     #[command(flatten)]
     pub(crate) gpu: DeviceArgs,
 }
@@ -460,8 +264,17 @@ pub(crate) struct FormFactorArgs {
     /// accuracy.
     #[arg(long)]
     pub(crate) method_only: bool,
-    #[command(flatten)]
-    pub(crate) mesh: MeshArgs,
+    /// Form factors: GPU hemicube, CPU ray tracing, or exact unoccluded
+    /// [default: hemicube].
+    #[arg(long, value_enum)]
+    pub(crate) ff: Option<FfArg>,
+    /// Longest element edge, in scene units (default: the scene's diagonal / 24).
+    #[arg(long, value_name = "LENGTH")]
+    pub(crate) max_edge: Option<f32>,
+    /// An expert setting, KEY=VALUE (repeatable; `vkrad help tuning`):
+    /// here hemicube_res, rays.
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub(crate) tune: Vec<String>,
     #[command(flatten)]
     pub(crate) gpu: DeviceArgs,
 }
@@ -508,12 +321,17 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// Whether `VKRAD_VALIDATE` asks for the validation layer in every command.
+pub(crate) fn validation_asked() -> bool {
+    std::env::var_os("VKRAD_VALIDATE").is_some_and(|v| !v.is_empty() && v != "0")
+}
+
 impl DeviceArgs {
     /// The device choice these flags make.
     pub(crate) fn options(&self) -> DeviceOptions {
         DeviceOptions {
             selector: self.device.clone(),
-            validate: self.validate,
+            validate: self.validate || validation_asked(),
             profile: false,
             trace: None,
             capture: None,

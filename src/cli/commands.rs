@@ -2,28 +2,32 @@
 //! then print what it did.
 
 use std::io::IsTerminal;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 
-use super::args::{BenchArgs, FormFactorArgs, MeshOnlyArgs, RenderArgs};
+use clap::CommandFactory;
+
+use super::args::{
+    validation_asked, BenchArgs, Cli, FormFactorArgs, MeshOnlyArgs, ProfileArgs, RenderArgs,
+    ShadeArg,
+};
 use super::print::{
     describe_run_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
     print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
-use vkrad::app::{run_scene, CameraOverride, Job};
+use vkrad::app::{run_scene, tune, CameraOverride, Job, TUNING};
+use vkrad::gather::pixels::Shade;
 use vkrad::gpu::capture::CaptureTarget;
 use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::mesh::build::{check_mesh, MeshBuilder, MeshSettings};
-use vkrad::mesh::discontinuity::ShadowDetail;
+use vkrad::mesh::build::{check_mesh, MeshBuilder};
 use vkrad::mesh::progress::MeshMeter;
 use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
-use vkrad::solve::vertex_gather::VertexGather;
-use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod, SolveSettings};
+use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod};
 use vkrad::trace::{cat, span_since, Trace};
 
 pub(crate) fn devices() -> Result<()> {
@@ -51,68 +55,58 @@ pub(crate) fn devices() -> Result<()> {
 }
 
 pub(crate) fn render(args: RenderArgs) -> Result<()> {
+    let job = job_from(&args)?;
+    run_job(&args, job, None)
+}
+
+/// `vkrad profile`: the run with GPU timestamps, its table, and the
+/// timeline or capture asked for.
+pub(crate) fn profile(args: ProfileArgs) -> Result<()> {
     if let Some(path) = &args.trace {
         vkrad::app::check_output_path(path, &["json"])?;
     }
     // The trace's clock starts before anything it shows.
     let trace = args.trace.as_ref().map(|_| Arc::new(Trace::new()));
-    let job = job_from(&args, trace.clone())?;
-    render_job(args, job, trace)
+    let mut job = job_from(&args.render)?;
+    job.device.profile = true;
+    job.device.trace = trace.clone();
+    job.device.capture = args.capture;
+    job.device.validate |= args.validate;
+    let profiling = Profiling {
+        trace: args.trace.as_deref().zip(trace),
+        capture: args.capture.is_some(),
+    };
+    run_job(&args.render, job, Some(profiling))
+}
+
+/// What `vkrad profile` adds to a run.
+struct Profiling<'a> {
+    trace: Option<(&'a Path, Arc<Trace>)>,
+    capture: bool,
 }
 
 /// The job `vkrad ARGS` asks for: [`Job::new`] with what the arguments
-/// override (at their defaults, nothing: `vkrad SCENE` runs `Job::new`).
-pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<Job> {
+/// override, then every `--tune` in order (at their defaults, nothing:
+/// `vkrad SCENE` runs `Job::new`).
+pub(crate) fn job_from(args: &RenderArgs) -> Result<Job> {
     let scene = args.scene.clone().context("a scene is required")?;
     let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
-    job.device = DeviceOptions {
-        profile: args.profile,
-        trace,
-        capture: args.capture,
-        ..args.gpu.options()
-    };
-    job.max_edge = args.mesh.max_edge;
-    job.mesher = args.mesh.mesher();
-    job.dm_res = args.mesh.dm_res;
-    job.wireframe = args.wireframe;
-    job.ambient = !args.no_ambient;
-    job.final_gather = (!args.no_final_gather).then(|| VertexGather {
-        source_passes: args.gather_passes,
-        reuse: args.reflected_reuse,
-        direct_light: args.direct_light.direct_light(),
-        retrace_passes: args.retrace_passes,
-        lit_samples: !args.source_means,
-        share_centres: !args.own_centres,
-        hemisphere_rays: args.hemisphere_rays,
-        ray_device: args.ray_device.direct_light(),
-        ..VertexGather::default()
-    });
-    job.display_edge = args.display_edge;
-    job.display_mesher = Some(args.display_mesh.mesher(true));
-    job.display_refinements = args.display_refinements;
-    job.shade = args.shade.shade();
-    job.adaptive = args.adaptive;
-    job.tolerance = args.tolerance;
-    job.max_elements = args.max_elements;
-    job.check_mesh = !args.no_check_mesh;
-    job.solve = SolveSettings {
-        method: args.mesh.method()?,
-        hemicube_res: args.mesh.hemicube_res,
-        adapt_hemicube: !args.fixed_hemicube,
-        // --converge alone, else the stop error (with a floor far below it).
-        converge: args.converge.unwrap_or(1e-6),
-        unshot_share: args.converge.is_none().then_some(args.stop_error),
-        max_shots: args.max_shots,
-        // Set by the job from its final gather.
-        gather_passes: 0,
-        shooting: args.shooting(),
-        in_flight: args.in_flight.map(usize::from),
-    };
-    let fraction = |f: f64| f > 0.0 && f < 1.0;
-    if !fraction(job.solve.converge) || !fraction(args.stop_error) {
-        bail!("--converge and --stop-error take a fraction between 0 and 1");
+    job.device.selector = args.device.clone();
+    job.device.validate = validation_asked();
+    job.max_edge = args.max_edge;
+    if let Some(ff) = args.ff {
+        job.solve.method = ff.method();
+    }
+    match args.shade {
+        None | Some(ShadeArg::Auto) => {}
+        Some(ShadeArg::Pixels) => job.shade = Shade::Pixels,
+        Some(ShadeArg::Mesh) => job.shade = Shade::Mesh,
+        Some(ShadeArg::Wireframe) => {
+            job.shade = Shade::Mesh;
+            job.wireframe = true;
+        }
     }
     job.camera = CameraOverride {
         eye: args.eye,
@@ -120,22 +114,66 @@ pub(crate) fn job_from(args: &RenderArgs, trace: Option<Arc<Trace>>) -> Result<J
         up: args.up,
         fov_y_deg: args.fov,
     };
-    job.size = args.size;
+    if let Some(size) = args.size {
+        job.size = size;
+    }
     job.exposure = args.exposure;
+    for assignment in &args.tune {
+        tune(&mut job, assignment)?;
+    }
     Ok(job)
 }
 
-/// Runs `job` as `vkrad ARGS` does: progress line, report, trace, summary.
-fn render_job(args: RenderArgs, job: Job, trace: Option<Arc<Trace>>) -> Result<()> {
+/// `vkrad help [TOPIC]`.
+pub(crate) fn help(topic: Option<&str>) -> Result<()> {
+    let mut command = Cli::command();
+    match topic {
+        None => command.print_long_help()?,
+        Some("tuning" | "tune") => print!("{}", tuning_help()),
+        Some(name) => match command.find_subcommand_mut(name) {
+            Some(sub) => sub.print_long_help()?,
+            None => bail!(
+                "no help on {name:?}: try `vkrad help tuning`, or one of devices, formfactors, mesh, bench, profile"
+            ),
+        },
+    }
+    Ok(())
+}
+
+/// Every `--tune` key with its default (read from `Job::default`) and what it changes.
+pub(crate) fn tuning_help() -> String {
+    let defaults = Job::default();
+    let mut out = String::from(
+        "Expert settings: vkrad SCENE --tune KEY=VALUE [--tune KEY=VALUE ...]\n\
+         The defaults need no tuning; each key changes one setting of the run.\n\n",
+    );
+    for key in TUNING {
+        out.push_str(&format!(
+            "  {:<20} [default: {}]\n      {}\n",
+            key.name,
+            key.value(&defaults),
+            key.help
+        ));
+    }
+    out
+}
+
+/// Runs `job` as `vkrad ARGS` does: progress line, report, summary, and
+/// what `vkrad profile` asked for.
+fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<()> {
+    let trace = profiling
+        .as_ref()
+        .and_then(|p| p.trace.as_ref())
+        .map(|(_, t)| Arc::clone(t));
     if let Some(report) = &args.report {
         vkrad::app::check_output_path(report, &["json"])?;
     }
     install_interrupt_handler();
     let mut progress = ProgressLine::new(
         !args.quiet && std::io::stderr().is_terminal(),
-        match args.converge {
-            Some(f) => StopTarget::Residual(f),
-            None => StopTarget::UnshotShare(args.stop_error),
+        match job.solve.unshot_share {
+            Some(f) => StopTarget::UnshotShare(f),
+            None => StopTarget::Residual(job.solve.converge),
         },
     );
     // Know the cost before paying it: the mesh's size and memory, said
@@ -156,19 +194,25 @@ fn render_job(args: RenderArgs, job: Job, trace: Option<Arc<Trace>>) -> Result<(
     }
     // Without the final gather the solve stops only when it has shot
     // nearly all the light itself: on many patches, thousands of shots.
-    if !args.quiet && args.no_final_gather && args.converge.is_none() && scene.patches.len() >= 1000
-    {
+    if let (false, None, Some(share)) = (
+        args.quiet,
+        job.final_gather,
+        job.solve
+            .unshot_share
+            .filter(|_| scene.patches.len() >= 1000),
+    ) {
         eprintln!(
-            "warning: --no-final-gather: the solve stops only once under {:.1}% of the light is left unshot, which on {} patches takes many shots (rfield: 10.7% still unshot after 300 shots, 19 s on 2 cores); --max-shots N or --converge F bounds it",
-            100.0 * args.stop_error,
+            "warning: final_gather=false: the solve stops only once under {:.1}% of the light is left unshot, which on {} patches takes many shots; --tune max_shots=N or --tune converge=F bounds it",
+            100.0 * share,
             scene.patches.len()
         );
     }
     // With --capture the device is made here, to ask it afterwards what
     // became of the capture (and to fail before any work without RenderDoc).
-    let device = match args.capture {
-        Some(_) => Some(Device::new(&job.device)?),
-        None => None,
+    let capture = profiling.as_ref().is_some_and(|p| p.capture);
+    let device = match capture {
+        true => Some(Device::new(&job.device)?),
+        false => None,
     };
     let report = run_scene(&job, scene, load_seconds, device.clone(), |p| {
         progress.update(p);
@@ -178,12 +222,16 @@ fn render_job(args: RenderArgs, job: Job, trace: Option<Arc<Trace>>) -> Result<(
     if let Some(path) = &args.report {
         vkrad::app::write_report(path, &report.to_json(&job))?;
     }
-    if let (Some(path), Some(trace)) = (&args.trace, &trace) {
+    let trace_path = profiling
+        .as_ref()
+        .and_then(|p| p.trace.as_ref())
+        .map(|(p, _)| *p);
+    if let (Some(path), Some(trace)) = (trace_path, &trace) {
         write_trace(path, trace)?;
     }
     if !args.quiet {
-        print_summary(&report, args.profile);
-        for path in args.report.iter().chain(&args.trace) {
+        print_summary(&report, profiling.is_some());
+        for path in args.report.iter().map(PathBuf::as_path).chain(trace_path) {
             println!("  wrote     {}", path.display());
         }
         if let Some((target, outcome)) = device.as_ref().and_then(|d| d.capture_outcome()) {
@@ -257,16 +305,16 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    let mut job = Job::new(args.scene.clone());
+    if let Some(mesher) = args.mesher {
+        tune(&mut job, &format!("mesh={}", mesher.name()))?;
+    }
+    job.max_edge = args.max_edge;
+    for assignment in &args.tune {
+        tune(&mut job, assignment)?;
+    }
     let device = Device::new(&args.gpu.options())?;
-    let settings = MeshSettings {
-        mesher: args.mesh.mesher(),
-        max_edge: args
-            .mesh
-            .max_edge
-            .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene)),
-        dm_res: args.mesh.dm_res,
-        detail: ShadowDetail::Full,
-    };
+    let settings = vkrad::app::mesh_settings(&job, &scene);
     // A large discontinuity mesh takes minutes: a progress line, and
     // Ctrl-C stops it (nothing is written).
     install_interrupt_handler();
@@ -309,12 +357,23 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
 
 pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let mut job = Job::new(args.scene.clone());
+    if let Some(ff) = args.ff {
+        job.solve.method = ff.method();
+    }
+    for assignment in &args.tune {
+        tune(&mut job, assignment)?;
+    }
     let max_edge = args
-        .mesh
         .max_edge
         .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene));
     let mesh = vkrad::mesh::uniform(&scene, max_edge);
-    let method = args.mesh.method()?;
+    let method = job.solve.method;
+    let hemicube_res = job.solve.hemicube_res;
+    let rays = match method {
+        FormFactorMethod::RayTrace { rays } => rays,
+        _ => FormFactorMethod::DEFAULT_RAYS,
+    };
     let show_progress = std::io::stderr().is_terminal();
     let progress = |done: usize, n: usize| {
         if show_progress {
@@ -328,7 +387,7 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
         FormFactorMethod::Analytic if checked => None,
         FormFactorMethod::Hemicube => {
             let device = Device::new(&args.gpu.options())?;
-            let ff = patch_form_factors(&device, &scene, &mesh, args.mesh.hemicube_res, progress)?;
+            let ff = patch_form_factors(&device, &scene, &mesh, hemicube_res, progress)?;
             device.check_validation()?;
             Some(ff)
         }
@@ -336,7 +395,7 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     };
     let output = if checked {
         let settings = MatrixSettings {
-            rays: args.mesh.rays.max(1),
+            rays,
             ..MatrixSettings::default()
         };
         let ff = checked_patch_form_factors(
@@ -344,7 +403,7 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
             &mesh,
             method,
             raw.as_ref(),
-            (args.mesh.hemicube_res, &settings),
+            (hemicube_res, &settings),
             progress,
         )?;
         FormFactorOutput::Checked(ff)
@@ -354,7 +413,14 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     if show_progress {
         eprint!("\r{:40}\r", "");
     }
-    print_form_factors(&scene, &mesh, &output, &args, method, max_edge)?;
+    print_form_factors(
+        &scene,
+        &mesh,
+        &output,
+        &args,
+        (method, hemicube_res, rays),
+        max_edge,
+    )?;
     Ok(())
 }
 
@@ -371,12 +437,12 @@ mod tests {
     fn vkrad_scene_runs_the_library_s_default_job() {
         for scene in ["cornell", "scenes/curved.obj"] {
             let cli = Cli::parse_from(["vkrad", scene]);
-            let job = job_from(&cli.render, None).unwrap();
+            let job = job_from(&cli.render).unwrap();
             assert_eq!(format!("{job:#?}"), format!("{:#?}", Job::new(scene)));
         }
         // An option does override.
-        let cli = Cli::parse_from(["vkrad", "cornell", "--display-refinements", "0"]);
-        let job = job_from(&cli.render, None).unwrap();
+        let cli = Cli::parse_from(["vkrad", "cornell", "--tune", "display_refinements=0"]);
+        let job = job_from(&cli.render).unwrap();
         assert_eq!(job.display_refinements, 0);
         assert_ne!(format!("{job:?}"), format!("{:?}", Job::new("cornell")));
     }

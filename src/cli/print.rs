@@ -100,7 +100,7 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     }
     if let (reused @ 1.., gathered) = r.gather.reflected_reuse {
         passes += &format!(
-            "; {:.0}% took their reflected light from the centres (--reflected-reuse)",
+            "; {:.0}% took their reflected light from the centres (--tune reflected_reuse)",
             100.0 * reused as f64 / (reused + gathered) as f64
         );
     }
@@ -116,13 +116,13 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             let (w, h) = (r.image.width, r.image.height);
             println!(
                 "  display   gathered at the {w}x{h} pixels: the reflected light at {reflected} points (a patch's per {k}x{k} pixels), the direct light at {direct} ({d} a pixel, {e} more across shadow edges){passes} (--shade)",
-                k = vkrad::render::pixel_gather::reflected_block(w, h),
-                d = vkrad::render::pixel_gather::direct_samples(w, h),
-                e = vkrad::render::pixel_gather::edge_samples(w, h),
+                k = vkrad::gather::pixels::reflected_block(w, h),
+                d = vkrad::gather::pixels::direct_samples(w, h),
+                e = vkrad::gather::pixels::edge_samples(w, h),
             );
         }
         Some(d) => println!(
-            "  display   {} elements{}, {} vertices, each {}gathered from the solved elements{passes} (--display-mesh, --display-edge)",
+            "  display   {} elements{}, {} vertices, each {}gathered from the solved elements{passes} (--tune display_mesh, --tune display_edge)",
             d.elements.len(),
             r.shown_elements
                 .map(|n| format!(" ({n} in the image)"))
@@ -149,12 +149,12 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         } else if s.converged {
             " (converged)"
         } else {
-            " (NOT converged: raise --max-shots)"
+            " (NOT converged: raise --tune max_shots)"
         }
     );
     if let Some(a) = r.ambient {
         println!(
-            "  ambient   image adds an ambient term for the unshot light ({:.3} {:.3} {:.3}; --no-ambient to omit)",
+            "  ambient   image adds an ambient term for the unshot light ({:.3} {:.3} {:.3}; --tune ambient=false to omit)",
             a.x, a.y, a.z
         );
     }
@@ -210,7 +210,7 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             }
         }
     } else {
-        println!("  gpu       {total:.2}s in passes ({source}; --profile for the table)");
+        println!("  gpu       {total:.2}s in passes ({source}; `vkrad profile` for the table)");
     }
     if s.shots > 0 {
         println!(
@@ -380,7 +380,7 @@ pub(crate) fn print_form_factors(
     mesh: &Mesh,
     out: &FormFactorOutput,
     args: &FormFactorArgs,
-    method: FormFactorMethod,
+    (method, hemicube_res, rays): (FormFactorMethod, u32, usize),
     max_edge: f32,
 ) -> anyhow::Result<()> {
     let matrix = out.matrix();
@@ -397,7 +397,7 @@ pub(crate) fn print_form_factors(
         })
         .collect();
     let method_name = match method {
-        FormFactorMethod::Hemicube => format!("hemicube {}px", args.mesh.hemicube_res),
+        FormFactorMethod::Hemicube => format!("hemicube {}px", hemicube_res),
         m => m.name(),
     };
     let accuracy = accuracy_lines(out, &method_name);
@@ -454,8 +454,8 @@ pub(crate) fn print_form_factors(
         let doc = serde_json::json!({
             "scene": scene.source.display().to_string(),
             "method": method.name(),
-            "hemicube_res": args.mesh.hemicube_res,
-            "rays": args.mesh.rays,
+            "hemicube_res": hemicube_res,
+            "rays": rays,
             "max_edge": max_edge,
             "elements": mesh.elements.len(),
             "definition": "F[i][j]: fraction of the power leaving patch i (uniform, diffuse) that arrives at patch j; average over patch i (thesis eq. 2.7)",

@@ -203,7 +203,7 @@ impl Image {
                 device: device.info.name.clone(),
                 what: format!(
                     "image {name:?} of {}x{} exceeds the device's limit of {max} pixels per side (or is empty); \
-                     lower --hemicube-res (the hemicube atlas is res x 3res), --dm-res or --size",
+                     lower --tune hemicube_res (the hemicube atlas is res x 3res), --tune dm_res or --size",
                     extent.width, extent.height
                 ),
             });

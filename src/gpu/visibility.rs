@@ -100,7 +100,7 @@ impl VisibilityPass {
         }
         if !(4..=1024).contains(&tile_res) {
             return Err(Error::Invalid(format!(
-                "--dm-res must be between 4 and 1024 pixels, got {tile_res}"
+                "--tune dm_res must be between 4 and 1024 pixels, got {tile_res}"
             )));
         }
         let depth_format = pick_depth_stencil(device)?;

@@ -33,7 +33,7 @@ pub struct MeshSettings {
     pub mesher: Mesher,
     /// Maximum element edge (scene units).
     pub max_edge: f32,
-    /// Tile side in pixels of the GPU visibility pass (`--dm-res`).
+    /// Tile side in pixels of the GPU visibility pass (`--tune dm_res`).
     pub dm_res: u32,
     /// How much of the shadows the discontinuity mesher models.
     pub detail: ShadowDetail,

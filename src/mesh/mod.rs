@@ -8,6 +8,7 @@ use crate::scene::{Scene, ELEMENT_SAMPLING};
 
 pub mod build;
 pub mod discontinuity;
+pub mod display;
 mod junction;
 pub mod progress;
 mod sanity;

@@ -11,7 +11,6 @@ pub mod patch_matrix;
 pub mod progressive;
 pub mod shoot;
 pub mod solution;
-pub mod vertex_gather;
 
 pub use hierarchy::{HierarchyRule, ShooterTree};
 pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};

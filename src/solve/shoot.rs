@@ -35,6 +35,9 @@ pub enum FormFactorMethod {
 }
 
 impl FormFactorMethod {
+    /// Rays per receiver vertex of [`FormFactorMethod::RayTrace`] unless tuned.
+    pub const DEFAULT_RAYS: usize = 64;
+
     pub fn name(&self) -> String {
         match self {
             FormFactorMethod::Hemicube => "hemicube".into(),
@@ -441,7 +444,7 @@ impl<'a> Shots<'a> {
         let area = n.area;
         let Some(shooter) = n.element else {
             return Err(Error::Invalid(
-                "ray-traced and analytic form factors shoot element by element (--shooting element)"
+                "ray-traced and analytic form factors shoot element by element (--tune shooting element)"
                     .into(),
             ));
         };

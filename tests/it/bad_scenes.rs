@@ -660,10 +660,10 @@ fn run_vkrad(dir: &Path) -> Run {
             "out.png",
             "--size",
             "32x32",
-            "--hemicube-res",
-            "16",
-            "--max-shots",
-            "200",
+            "--tune",
+            "hemicube_res=16",
+            "--tune",
+            "max_shots=200",
         ])
         .current_dir(dir)
         .stdin(Stdio::null())

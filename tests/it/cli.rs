@@ -5,9 +5,14 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
+/// Runs the binary; `--validate` among `args` becomes `VKRAD_VALIDATE=1`,
+/// which every command reads (the main command has no such flag).
 fn vkrad(args: &[&str], dir: &Path) -> Output {
+    let validate = args.contains(&"--validate");
+    let args = args.iter().filter(|&&a| a != "--validate");
     Command::new(env!("CARGO_BIN_EXE_vkrad"))
         .args(args)
+        .envs(validate.then_some(("VKRAD_VALIDATE", "1")))
         .current_dir(dir)
         .output()
         .expect("run vkrad")
@@ -185,8 +190,8 @@ fn renders_and_exports_a_small_scene() {
             "simple.ply",
             "--size",
             "64x48",
-            "--hemicube-res",
-            "32",
+            "--tune",
+            "hemicube_res=32",
             "--validate",
         ],
         &dir,
@@ -272,8 +277,8 @@ fn formfactors_json_is_a_square_matrix() {
             "formfactors",
             "simple",
             "--json",
-            "--hemicube-res",
-            "32",
+            "--tune",
+            "hemicube_res=32",
             "--validate",
         ],
         &dir,
@@ -314,12 +319,12 @@ fn ctrl_c_stops_cleanly_and_writes_the_partial_result() {
             // A solve far longer than the wait on any device (the default
             // stops early, the final gather's passes finishing the light;
             // an H200 reaches 1e-6 by hierarchical shots in under 3 s).
-            "--converge",
-            "1e-12",
-            "--shooting",
-            "element",
-            "--max-shots",
-            "10000000",
+            "--tune",
+            "converge=1e-12",
+            "--tune",
+            "shooting=element",
+            "--tune",
+            "max_shots=10000000",
         ])
         .current_dir(&dir)
         .stdout(std::process::Stdio::piped())
@@ -364,8 +369,8 @@ fn blocked_light_warns_that_nothing_was_lit() {
             "out.png",
             "--size",
             "16x16",
-            "--hemicube-res",
-            "16",
+            "--tune",
+            "hemicube_res=16",
         ],
         &dir,
     );
@@ -430,13 +435,14 @@ fn wireframe_darkens_mesh_edges() {
             out,
             "--size",
             "64x48",
-            "--hemicube-res",
-            "16",
+            "--tune",
+            "hemicube_res=16",
             "--exposure",
             "4",
-            "--mesh",
-            "discontinuity",
-            "--no-subdivide",
+            "--tune",
+            "mesh=discontinuity",
+            "--tune",
+            "subdivide=false",
             "--validate",
         ];
         args.extend_from_slice(extra);
@@ -445,7 +451,7 @@ fn wireframe_darkens_mesh_edges() {
         image::open(dir.join(out)).unwrap().to_rgb8()
     };
     let plain = run(&[], "plain.png");
-    let wire = run(&["--wireframe"], "wire.png");
+    let wire = run(&["--shade", "wireframe"], "wire.png");
     let darker = plain
         .pixels()
         .zip(wire.pixels())
@@ -469,8 +475,8 @@ fn the_export_is_the_gathered_display_mesh() {
             "s.ply",
             "--size",
             "32x24",
-            "--hemicube-res",
-            "32",
+            "--tune",
+            "hemicube_res=32",
             "--max-edge",
             "1.25",
             "--validate",
@@ -489,8 +495,8 @@ fn the_export_is_the_gathered_display_mesh() {
             .unwrap();
         (count, summary)
     };
-    let (solved, plain) = vertices(&["--no-final-gather"]);
-    let (display, gathered) = vertices(&["--display-mesh", "uniform"]);
+    let (solved, plain) = vertices(&["--tune", "final_gather=false"]);
+    let (display, gathered) = vertices(&["--tune", "display_mesh=uniform"]);
     assert!(!plain.contains("display "), "{plain}");
     assert!(gathered.contains("display "), "{gathered}");
     // Half the edge: about four times the elements, more than twice the vertices.
@@ -515,13 +521,14 @@ fn no_final_gather_on_many_patches_warns_how_to_bound_the_solve() {
             "x.png",
             "--size",
             "16x16",
-            "--no-final-gather",
-            "--max-shots",
-            "2",
+            "--tune",
+            "final_gather=false",
+            "--tune",
+            "max_shots=2",
         ];
         let out = vkrad(&args, &dir);
         assert!(out.status.success(), "{scene}:\n{}", stderr(&out));
-        let said = stderr(&out).contains("--max-shots N or --converge F bounds it");
+        let said = stderr(&out).contains("--tune max_shots=N or --tune converge=F bounds it");
         assert_eq!(said, warns, "{scene}:\n{}", stderr(&out));
     }
 }

@@ -94,8 +94,8 @@ fn beyond_the_device_limits() {
         return;
     }
     let out = vkrad(
-        &["simple", "--hemicube-res", "8192", "-o", "never.png"],
+        &["simple", "--tune", "hemicube_res=8192", "-o", "never.png"],
         &[],
     );
-    expect_failure(&out, &["exceeds the device's limit", "--hemicube-res"]);
+    expect_failure(&out, &["exceeds the device's limit", "hemicube_res"]);
 }

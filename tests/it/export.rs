@@ -261,11 +261,12 @@ fn the_binary_exports_glb_with_the_image_exposure() {
             "s.glb",
             "--size",
             "32x24",
-            "--hemicube-res",
-            "16",
-            "--no-final-gather",
-            "--validate",
+            "--tune",
+            "hemicube_res=16",
+            "--tune",
+            "final_gather=false",
         ])
+        .env("VKRAD_VALIDATE", "1")
         .current_dir(&dir)
         .output()
         .unwrap();

@@ -483,8 +483,8 @@ fn formfactors_output_states_its_accuracy() {
         "--json",
         "--ff",
         "raytrace",
-        "--rays",
-        "16",
+        "--tune",
+        "rays=16",
         "--max-edge",
         "150",
     ]))

@@ -9,9 +9,9 @@ use crate::common;
 use std::path::PathBuf;
 
 use vkrad::app::{run, Job};
+use vkrad::gather::pixels::Shade;
 use vkrad::output::compare::{compare_rgb8, diff_image, save_png_rgb8};
 use vkrad::output::image_io::load_png_rgb8;
-use vkrad::render::pixel_gather::Shade;
 use vkrad::solve::SolveSettings;
 
 /// Fixed, not automatic, so that a change of absolute brightness shows.

@@ -521,10 +521,10 @@ fn final_gather<'a>(
         vkrad::solve::ShooterTree,
         Vec<[f32; 3]>,
     ),
-    settings: vkrad::solve::vertex_gather::VertexGather,
+    settings: vkrad::gather::VertexGather,
     device: &Arc<Device>,
-) -> vkrad::solve::vertex_gather::FinalGather<'a> {
-    use vkrad::solve::vertex_gather::{FinalGather, Meter, VertexGather};
+) -> vkrad::gather::FinalGather<'a> {
+    use vkrad::gather::{FinalGather, Meter, VertexGather};
     let settings = VertexGather {
         source_passes: 1,
         ..settings
@@ -543,7 +543,7 @@ fn final_gather<'a>(
 
 #[test]
 fn the_final_gather_agrees_with_its_direct_light_on_the_gpu() {
-    use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
+    use vkrad::gather::{DirectLight, VertexGather};
     let device = common::device();
     let setup = meshed("cornell", |_| 1.0);
     let mesh = &setup.1;
@@ -604,7 +604,7 @@ fn the_reflected_light_agrees_with_its_hemisphere_rays_on_the_gpu() {
     // point's random stream) traced on the GPU and on the CPU, at the
     // element centres' pass, the pixels' reflected points and the display
     // vertices: the same values but where a ray grazes an edge.
-    use vkrad::solve::vertex_gather::{DirectLight, FinalGather, Meter, PointLight, VertexGather};
+    use vkrad::gather::{DirectLight, FinalGather, Meter, PointLight, VertexGather};
     let device = common::device();
     let setup = meshed("r", |patch| 0.5 + (patch % 7) as f32 * 0.1);
     let (scene, mesh) = (&setup.0, &setup.1);
@@ -732,8 +732,8 @@ fn the_camera_rays_show_the_same_patches_on_the_gpu_and_the_cpu() {
     // in the same shares, but where a ray grazes the edge two patches
     // share (either is met there; on rfield at 256x256, 8 of 65,536
     // pixels on lavapipe, each one sample apart).
-    use vkrad::render::pixel_gather::{direct_samples, PixelPoints};
-    use vkrad::solve::vertex_gather::{DirectLight, VertexGather};
+    use vkrad::gather::pixels::{direct_samples, PixelPoints};
+    use vkrad::gather::{DirectLight, VertexGather};
     let device = common::device();
     for name in ["cornell", "r"] {
         let setup = meshed(name, |_| 0.5);

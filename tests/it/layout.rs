@@ -43,6 +43,21 @@ const MAY_IMPORT: &[(&str, &[&str])] = &[
             "trace",
         ],
     ),
+    (
+        "gather",
+        &[
+            "error",
+            "geom",
+            "scene",
+            "mesh",
+            "formfactor",
+            "gpu",
+            "output",
+            "solve",
+            "render",
+            "trace",
+        ],
+    ),
     ("app", &[ANY_BUT_BENCH]),
     ("bench", &[ANY_BUT_BENCH]),
 ];
@@ -52,7 +67,11 @@ const ANY_BUT_BENCH: &str = "*";
 
 /// The only files of `mesh` that touch the Vulkan layer: the mesher's GPU
 /// visibility oracle and the builder that runs it.
-const MESH_FILES_USING_GPU: &[&str] = &["mesh/build.rs", "mesh/discontinuity/visibility.rs"];
+const MESH_FILES_USING_GPU: &[&str] = &[
+    "mesh/build.rs",
+    "mesh/display.rs",
+    "mesh/discontinuity/visibility.rs",
+];
 
 const MAX_CODE_LINES: usize = 700;
 

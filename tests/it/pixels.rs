@@ -1,4 +1,4 @@
-//! The image gathered at its pixels (`render::pixel_gather`, the default)
+//! The image gathered at its pixels (`gather::pixels`, the default)
 //! against the image drawn from a display mesh's gathered vertices: the
 //! same light, so where the mesh holds the shadows the two agree, and the
 //! pixels see exactly what the rasterizer draws. On failure both images
@@ -6,10 +6,9 @@
 //! message.
 
 use vkrad::app::{run, Job};
+use vkrad::gather::pixels::Shade;
 use vkrad::output::compare::{diff_image, save_png_rgb8};
 use vkrad::output::image_io::HdrImage;
-use vkrad::render::pixel_gather::Shade;
-use vkrad::solve::vertex_gather::VertexGather;
 
 use crate::common;
 
@@ -93,57 +92,4 @@ fn the_pixels_and_the_display_mesh_show_the_same_light() {
         100.0 * mean_difference,
         std::env::temp_dir().display()
     );
-}
-
-#[test]
-fn small_elements_share_their_centres_gather_and_the_image_keeps_its_light() {
-    // `rfield`: 175 letters of small patches on a floor of large
-    // elements. The letters' elements share a gather per smooth surface and cell
-    // (`vertex_gather::shared_centres`); the report counts the centres
-    // traced, and the image stays that of every centre its own.
-    let device = common::device();
-    let dir = std::env::temp_dir().join(format!("vkrad-shared-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let run_r = |share_centres: bool| {
-        let mut job = Job::new("rfield");
-        job.output = Some(dir.join(format!("shared-{share_centres}.png")));
-        job.size = (64, 64);
-        job.final_gather = job
-            .final_gather
-            .map(|g| VertexGather { share_centres, ..g });
-        let report = run(&job, Some(device.clone()), |_| true).unwrap();
-        common::assert_validation_clean(&device);
-        report
-    };
-    let (shared, own) = (run_r(true), run_r(false));
-    // Measured: 12,590 centres of 24,840.
-    let elements = shared.mesh.elements.len();
-    assert_eq!(own.gather.centres_gathered, elements);
-    assert!(
-        shared.gather.centres_gathered > 0 && shared.gather.centres_gathered * 5 < elements * 3,
-        "{} centres of {elements}",
-        shared.gather.centres_gathered
-    );
-    let lum = |p: &[f32; 3]| f64::from(p[0] + p[1] + p[2]);
-    let (mut sq, mut sum) = (0.0f64, 0.0f64);
-    for (a, b) in shared.image.pixels.iter().zip(&own.image.pixels) {
-        sq += (lum(a) - lum(b)).powi(2);
-        sum += lum(b);
-    }
-    let n = own.image.pixels.len() as f64;
-    let rel = (sq / n).sqrt() / (sum / n);
-    eprintln!("shared against own centres: {:.3}% rel. RMS", 100.0 * rel);
-    // Measured: 0.21%.
-    if rel >= 0.01 {
-        let exposure = (0.5 * n / sum * 3.0) as f32;
-        let (a, b) = (rgb8(&shared.image, exposure), rgb8(&own.image, exposure));
-        for (name, pixels) in [("shared", &a), ("own", &b), ("diff", &diff_image(&a, &b))] {
-            save_png_rgb8(&dir.join(format!("vkrad-{name}.png")), 64, 64, pixels).unwrap();
-        }
-        panic!(
-            "{:.3}% apart; wrote vkrad-{{shared,own,diff}}.png in {}",
-            100.0 * rel,
-            dir.display()
-        );
-    }
 }

@@ -281,7 +281,7 @@ fn coplanar_twins_show_one_value() {
     job.output = Some(out_dir.join("r.png"));
     job.size = (64, 64);
     // What the display mesh shows (the pixels' own test is `pixels`).
-    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
+    job.shade = vkrad::gather::pixels::Shade::Mesh;
     // Every vertex is looked at, not just those the image shows.
     job.gather_unseen = true;
     job.solve = SolveSettings {

@@ -62,7 +62,7 @@ fn gathering_only_the_shown_elements_leaves_the_image_as_it_was() {
         job.output = Some(dir.join(format!("unseen-{gather_unseen}.exr")));
         job.size = (48, 48);
         // What the display mesh shows (the pixels' own test is `pixels`).
-        job.shade = vkrad::render::pixel_gather::Shade::Mesh;
+        job.shade = vkrad::gather::pixels::Shade::Mesh;
         job.gather_unseen = gather_unseen;
         // Refinement picks its elements by their level against the mean of
         // those it looks at: without it both runs gather the same mesh.

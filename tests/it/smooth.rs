@@ -69,7 +69,7 @@ fn a_tessellated_sphere_shades_like_the_smooth_one() {
     job.output = Some(dir.join("sphere.png"));
     job.size = (64, 64);
     // What the display mesh shows (the pixels' own test is `pixels`).
-    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
+    job.shade = vkrad::gather::pixels::Shade::Mesh;
     // Every vertex is looked at, not just those the image shows.
     job.gather_unseen = true;
     let report = run_scene(&job, scene, 0.0, Some(device.clone()), |_| true).unwrap();

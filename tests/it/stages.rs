@@ -12,7 +12,7 @@ fn job(name: &str) -> (Job, std::path::PathBuf) {
     job.output = Some(dir.join("out.png"));
     job.size = (48, 48);
     // What the display mesh shows (the pixels' own test is `pixels`).
-    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
+    job.shade = vkrad::gather::pixels::Shade::Mesh;
     (job, dir)
 }
 

@@ -43,7 +43,7 @@ fn small_job(dir: &Path, trace: Option<Arc<Trace>>) -> Job {
     job.output = Some(dir.join("simple.png"));
     job.size = (48, 48);
     // What the display mesh shows (the pixels' own test is `pixels`).
-    job.shade = vkrad::render::pixel_gather::Shade::Mesh;
+    job.shade = vkrad::gather::pixels::Shade::Mesh;
     job.device.trace = trace;
     job
 }
@@ -277,11 +277,11 @@ fn the_cli_writes_a_trace_and_the_reports_pass_figures_add_up_to_the_printed_tab
     let dir = temp_dir("cli");
     let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
         .args([
+            "profile",
             "simple",
             "--size",
             "32x32",
             "--validate",
-            "--profile",
             "--trace",
             "t.json",
             "--report",
@@ -342,7 +342,7 @@ fn rayon_work_is_traced_per_worker_on_its_own_track_inside_its_stage() {
     let dir = temp_dir("rayon");
     let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
         .args([
-            "simple", "--size", "32x32", "--shade", "mesh", "--trace", "t.json",
+            "profile", "simple", "--size", "32x32", "--shade", "mesh", "--trace", "t.json",
         ])
         .env("RAYON_NUM_THREADS", "2")
         .current_dir(&dir)
@@ -426,7 +426,7 @@ fn rayon_work_is_traced_per_worker_on_its_own_track_inside_its_stage() {
 fn capture_without_renderdoc_says_what_is_missing() {
     let dir = temp_dir("capture");
     let out = Command::new(env!("CARGO_BIN_EXE_vkrad"))
-        .args(["simple", "--size", "16x16", "--capture", "0"])
+        .args(["profile", "simple", "--size", "16x16", "--capture", "0"])
         .current_dir(&dir)
         .output()
         .unwrap();

@@ -1,5 +1,5 @@
 //! Ray queries on the GPU against a BVH in storage buffers: the final
-//! gather's direct light (`solve::vertex_gather::gpu_direct`).
+//! gather's direct light (`gather::gpu_direct`).
 //!
 //! - [`GpuBvh`] (`bvh.rs`): a binary BVH's nodes and triangles, uploaded
 //!   once (built on the CPU by `formfactor::raytrace::flat_bvh`, in

@@ -433,7 +433,7 @@ fn report_builtin_stats() {
     }
 }
 
-/// The GPU oracle's blockers for patch 972 of `vise` at `--dm-res 256`: two
+/// The GPU oracle's blockers for patch 972 of `vise` at `--tune dm_res=256`: two
 /// shadow segments on one line with a gap of 1.9e-4 of the patch size
 /// between them (more than the snap tolerance), next to a vertex at 2
 /// degrees from that line, so the CDT's triangle on the gap had its apex

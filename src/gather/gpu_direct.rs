@@ -8,7 +8,7 @@
 //! what a GPU does well. The CPU keeps the irregular part (the
 //! hierarchy, clusters, the reflected cache). On lavapipe the GPU pass is
 //! 3-6x slower than the CPU's own rays (`cargo bench --bench gpu_rays`),
-//! so `--direct-light auto` keeps the CPU there.
+//! so `--tune direct_light auto` keeps the CPU there.
 //!
 //! Each emitting patch is one source (its polygon, its mean radiosity,
 //! [`VertexGather::emitter_rays`] rays with the CPU's early out), where

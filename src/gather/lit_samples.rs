@@ -29,8 +29,6 @@
 //!   with the points that gather for themselves; their links keep the
 //!   emitters' part as a constant (`Links::take_lit`), which the passes
 //!   do not change.
-//!
-//! `--source-means` turns both off, for comparison.
 
 use glam::Vec3;
 use rayon::prelude::*;

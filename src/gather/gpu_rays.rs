@@ -1,7 +1,7 @@
 //! The final gather's first-hit rays on the GPU (`gpu::rays::FirstHitPass`:
 //! a compute pass over a BVH in storage buffers): the hemisphere rays of
 //! a scene of small patches ([`hemisphere_rays`](super::hemisphere_rays))
-//! and the image's camera rays (`render::pixel_gather`).
+//! and the image's camera rays (`gather::pixels`).
 //!
 //! Why one pass for both: each is a list of rays whose nearest hit the
 //! CPU then reads, the same query over the same BVH. Where the pass

@@ -48,7 +48,7 @@ use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
 use self::tail::Passes;
 pub use self::vertices::VertexCache;
-use super::hierarchy::ShooterTree;
+use crate::solve::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
 use crate::gpu::rays::GpuBvh;
@@ -87,21 +87,9 @@ pub struct VertexGather {
     pub reuse: f32,
     /// Where the emitters' direct light is gathered ([`gpu_direct`]).
     pub direct_light: DirectLight,
-    /// Trace every Jacobi pass again instead of reusing the first pass's
-    /// links ([`links`]): slower, for comparison.
-    pub retrace_passes: bool,
-    /// The emitters' light on an element averaged over its exposed part
-    /// for the passes, and taken at each visibility sample of a near
-    /// reflecting source after them ([`lit_samples`]); false: at the
-    /// element's centre, and the source's mean, for comparison.
-    pub lit_samples: bool,
-    /// With `lit_samples`, the small elements of a smooth surface share
-    /// one gather of their reflected light per cell ([`shared_centres`]);
-    /// false: every centre gathers its own, for comparison.
-    pub share_centres: bool,
     /// Cosine-distributed rays a point sends to gather the reflected light
     /// in a scene of small patches ([`hemisphere_rays`]); 0: every patch
-    /// is visited as a source, for comparison.
+    /// is visited as a source (as in a scene of a few large patches).
     pub hemisphere_rays: usize,
     /// Where the first-hit rays are traced: the hemisphere rays (of the
     /// element centres, the display vertices and the pixels' reflected
@@ -131,10 +119,7 @@ impl VertexGather {
     /// first Jacobi pass (the later ones reuse its links), or without
     /// passes the reflected cache's records.
     pub fn centre_gathers(&self) -> usize {
-        match self.retrace_passes {
-            true => self.source_passes + usize::from(self.reuse > 0.0),
-            false => usize::from(self.source_passes > 0 || self.reuse > 0.0),
-        }
+        usize::from(self.source_passes > 0 || self.reuse > 0.0)
     }
 }
 
@@ -150,9 +135,6 @@ impl Default for VertexGather {
             link_error: LINK_ERROR,
             reuse: REUSE,
             direct_light: DirectLight::Auto,
-            retrace_passes: false,
-            lit_samples: true,
-            share_centres: true,
             hemisphere_rays: HEMISPHERE_RAYS,
             ray_device: DirectLight::Auto,
         }
@@ -447,9 +429,9 @@ impl<'a> FinalGather<'a> {
         // and the cache's records take their light from the final sources.
         // The emitters' light on each element, averaged over its exposed
         // part, and lent at their samples by near sources
-        // ([`lit_samples`]); without, each centre gathers its own. Without
-        // passes the sources keep the light they were given.
-        let direct_means = (settings.lit_samples && settings.source_passes > 0).then(|| {
+        // ([`lit_samples`]). Without passes the sources keep the light
+        // they were given.
+        let direct_means = (settings.source_passes > 0).then(|| {
             gather.emitters = Emitters::new(&gather, &roots);
             let means = step(trace, "direct means", || {
                 gather.direct_means(solved, &exposed)
@@ -466,7 +448,6 @@ impl<'a> FinalGather<'a> {
         let surfaces = OnceLock::new();
         let shared = direct_means
             .as_ref()
-            .filter(|_| settings.share_centres)
             .map(|_| {
                 let surface = surfaces.get_or_init(|| scene.smooth_surfaces());
                 SharedCentres::new(solved, &exposed, surface)
@@ -516,7 +497,6 @@ impl<'a> FinalGather<'a> {
         let areas: Vec<f32> = solved.elements.iter().map(|e| e.area).collect();
         for pass in 0..settings.source_passes {
             let linking = match pass {
-                _ if settings.retrace_passes => Linking::None,
                 0 => Linking::Record(&mut links),
                 _ => Linking::Replay(&links),
             };
@@ -683,6 +663,7 @@ mod gpu_rays;
 mod hemisphere_rays;
 mod links;
 mod lit_samples;
+pub mod pixels;
 mod point_gather;
 mod receiver;
 pub mod refine;

@@ -9,9 +9,9 @@ use super::{
     SILHOUETTE_DIRECT,
 };
 use crate::formfactor::raytrace::{Occluders, RayBundle};
+use crate::gather::FinalGather;
 use crate::render::{nested_pixel_samples, pixel_samples};
 use crate::scene::{Camera, Scene};
-use crate::solve::vertex_gather::FinalGather;
 
 /// Coverage samples every pixel casts first: where these and its eight
 /// neighbours' show one surface alone, no silhouette is near enough to
@@ -49,7 +49,7 @@ impl CameraRayTracer for Occluders {
 }
 
 /// Where the final gather traces its first-hit rays: on the GPU when it
-/// does so there ([`VertexGather::ray_device`](crate::solve::vertex_gather::VertexGather::ray_device)).
+/// does so there ([`VertexGather::ray_device`](crate::gather::VertexGather::ray_device)).
 impl CameraRayTracer for FinalGather<'_> {
     fn hierarchy(&self) -> &Occluders {
         self.occluders()

@@ -12,7 +12,7 @@
 //!
 //! Each pixel casts [`coverage_samples`] stratified camera rays through
 //! the final gather's own ray-tracing hierarchy, on the CPU or (with its
-//! first-hit rays, `--ray-device`) the GPU; the samples that
+//! first-hit rays, `--tune ray_device`) the GPU; the samples that
 //! meet the same patch from its front form a group, weighted by their
 //! count. Samples that meet nothing or a patch's back are black (a
 //! one-sided diffuse surface, as the path tracer has it). How each group's
@@ -24,10 +24,10 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::pixel_samples;
+use crate::gather::{FinalGather, Meter, PointLight};
 use crate::output::HdrImage;
+use crate::render::pixel_samples;
 use crate::scene::{Camera, Scene};
-use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
 use crate::trace::{cat, span_since};
 use serde_json::json;
 
@@ -41,7 +41,7 @@ pub use coverage::{CameraRayTracer, FIRST_COVERAGE};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Shade {
     /// At the pixels unless the run needs what only a mesh has: a lit
-    /// mesh to export (`--export`), its edges drawn (`--wireframe`), or
+    /// mesh to export (`--export`), its edges drawn (`--shade wireframe`), or
     /// textures (the gathered points take their patch's mean reflectance).
     Auto,
     /// At a display mesh's vertices, Gouraud-interpolated between them.

@@ -10,8 +10,8 @@ use super::{
     edge_samples, pixel_samples, CameraRayTracer, Frame, PixelPoints, EDGE_CONTRAST,
     SILHOUETTE_EVEN, SILHOUETTE_FIRST,
 };
+use crate::gather::{FinalGather, Meter, PointLight};
 use crate::scene::Scene;
-use crate::solve::vertex_gather::{FinalGather, Meter, PointLight};
 
 impl PixelPoints {
     /// The direct light at the silhouette pixels' samples (group, light),

@@ -1,0 +1,105 @@
+//! The final gather at a display mesh's vertices, and the display
+//! refinement that splits its elements where the Gouraud image is off the
+//! gathered light.
+
+use super::refine::{split_points, Checked, DisplayRefinement};
+use super::{FinalGather, Meter, VertexCache};
+use crate::mesh::build::Mesher;
+use crate::mesh::display::DisplayMesh;
+use crate::scene::Scene;
+
+/// What the gather of a display mesh gave.
+pub enum Shaded {
+    /// Every vertex of the display mesh, refined as asked.
+    Done(Vec<[f32; 3]>),
+    /// Stopped during a refinement pass: every vertex of the display mesh
+    /// as the last finished pass left it.
+    Partial(Vec<[f32; 3]>),
+    /// Stopped before every vertex was gathered once.
+    Nothing,
+}
+
+/// Gathers the display mesh's vertices (those of its shown elements,
+/// when it marks them), then (discontinuity display meshes only) splits
+/// its (shown) elements where [`split_points`] finds the Gouraud image
+/// wrong and gathers the new vertices; every point is counted on `meter`,
+/// whose total the caller has given the display mesh's vertices (the
+/// refinement passes add their own, and the gather takes back those it
+/// leaves out).
+pub fn shade_display(
+    scene: &Scene,
+    gather: &mut FinalGather,
+    display: &mut DisplayMesh,
+    passes: usize,
+    meter: &mut Meter,
+) -> Shaded {
+    let refinement = DisplayRefinement {
+        passes,
+        suspect: 0.25,
+        tolerance: 0.05,
+        floor: 0.05,
+        // Penumbrae are resolved to an eighth of the display edge.
+        min_edge: display.edge / 8.0,
+    };
+    let mut cache = VertexCache::default();
+    let Some(mut values) = gather.at_shown_vertices_metered(
+        &display.mesh,
+        display.shown.as_deref(),
+        &mut cache,
+        meter,
+    ) else {
+        return Shaded::Nothing;
+    };
+    // A uniform display mesh has shadow and contact lines inside its
+    // elements: split at centroids, they show as stars (seen around the
+    // light of `curved.obj`).
+    if display.mesher == Mesher::Uniform {
+        return Shaded::Done(values);
+    }
+    let mut checked = Checked::default();
+    for _ in 0..refinement.passes {
+        let Some(split) = split_points(
+            scene,
+            &display.mesh,
+            &values,
+            display.shown.as_deref(),
+            gather,
+            &refinement,
+            &mut checked,
+            meter,
+        ) else {
+            return Shaded::Partial(values);
+        };
+        if split.is_empty() {
+            break;
+        }
+        // The new vertices take the light gathered at the centroids.
+        let elements = &display.mesh.elements;
+        cache.remember(
+            scene,
+            split
+                .iter()
+                .map(|&(k, value)| (elements[k].patch, elements[k].centre, value)),
+        );
+        let split: Vec<usize> = split.into_iter().map(|(k, _)| k).collect();
+        // Split in place (one triangle into three at its centroid): the
+        // mesh stays conforming, no vertex moves, and only the centroids
+        // are gathered. (Re-meshing with the centroids inserted made the
+        // discontinuity mesher leave regions unsubdivided.)
+        let (finer, parents) = display.mesh.split_at_centroids_traced(&split);
+        let shown = display.shown.as_ref().map(|shown| {
+            parents
+                .iter()
+                .map(|&p| shown[p as usize])
+                .collect::<Vec<_>>()
+        });
+        meter.total += finer.vertices.len();
+        match gather.at_shown_vertices_metered(&finer, shown.as_deref(), &mut cache, meter) {
+            Some(v) => values = v,
+            None => return Shaded::Partial(values),
+        }
+        display.mesh = finer;
+        display.shown = shown;
+    }
+    Shaded::Done(values)
+}
