@@ -1,0 +1,707 @@
+#!/usr/bin/env python3
+"""Writes bench/RESULTS.md, every measurement vkrad's documents quote,
+from the committed bench/*.json (and bench/h200/*.json):
+
+    python3 bench/results.py                  # bench/RESULTS.md
+    python3 bench/results.py --gallery-table  # print the README's gallery table
+
+Python 3 standard library only. Each section names the file it reads, the
+command that makes that file and the date of its last commit (git log; a
+date recorded in the file itself wins). Missing files and fields are
+skipped, not fatal.
+"""
+import glob
+import json
+import math
+import os
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+OUT = os.path.join(HERE, "RESULTS.md")
+MiB = 1 << 20
+# Absolute prefixes the runs recorded, shown relative to the repository.
+RECORDED_ROOTS = ["/work/main/", ROOT + "/"]
+
+# Commands for the files that do not record how they were made; the second
+# element says where the command comes from.
+COMMANDS = {
+    "gallery.json": ("python3 bench/gallery.py", "bench/gallery.py; needs bench/pathtracer's references"),
+    "memory.json": ("python3 bench/memory.py --large", "bench/memory.py"),
+    "scenes.json": ("python3 bench/memory.py --large && python3 bench/plot_scenes.py", "bench/plot_scenes.py"),
+    "scaling.json": ("cargo bench --bench scaling && python3 bench/plot_scaling.py", "benches/scaling.rs"),
+    "gather_cost.json": ("cargo bench --bench gather_cost -- [SCENE...]", "benches/gather_cost.rs"),
+    "bench.json": ("cargo run --release -- bench", "src/bench, the `vkrad bench` subcommand"),
+    "meshers.json": ("cargo run --release -- bench --meshers", "src/bench, the `vkrad bench` subcommand"),
+    "race-cornell.json": (
+        "cd bench/pathtracer && python3 compare.py && python3 compare.py --skip-race --tag=-final "
+        "--converge default,1e-1,1e-2 && cd ../.. && python3 bench/plot_race.py",
+        "bench/plot_race.py"),
+    "h200/memory-h200.json": (
+        "python3 bench/memory.py --large --vkrad $V --out $OUT/memory-h200.json",
+        "bench/h200/gpu_run.sh"),
+    "h200/race-rfield.json": (
+        "cd bench/pathtracer && python3 compare.py --scene rfield --vkrad $V --size 256x256 --ref-spp 4096 "
+        "--converge default --variant cuda_ad_rgb --target 0.02 --max-spp 4096",
+        "bench/h200/gpu_run2.sh"),
+    "h200/race-cornell.json": (
+        "cd bench/pathtracer && python3 compare.py --scene cornell --vkrad $V --size 256x256 --ref-spp 65536 "
+        "--converge default --variant cuda_ad_rgb --target 0.015 --max-spp 8192",
+        "bench/h200/gpu_run2.sh"),
+}
+
+# Charts with no JSON of their own.
+CAPTIONS = {
+    "curved.png": "a tessellated sphere and torus (`scenes/curved.obj`) without and with the final gather",
+    "trace/cornell.png": "`vkrad cornell`'s `--trace` timeline in Chromium DevTools (`bench/trace/view.py`)",
+    "trace/cornell-gather.png": "the same timeline, its final gather",
+    "trace/rfield.png": "`rfield`'s `--trace` timeline in Chromium DevTools",
+}
+
+
+# ---------------------------------------------------------------- helpers
+
+def load(rel):
+    path = os.path.join(HERE, rel)
+    try:
+        with open(path) as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError) as e:
+        print(f"results.py: skipping {rel}: {e}", file=sys.stderr)
+        return None
+    if not isinstance(doc, dict):
+        print(f"results.py: skipping {rel}: not a JSON object", file=sys.stderr)
+        return None
+    return doc
+
+
+def dicts(x):
+    """The objects of a JSON list (anything else: none)."""
+    return [r for r in x if isinstance(r, dict)] if isinstance(x, list) else []
+
+
+def git_date(rel):
+    path = os.path.join("bench", rel)
+    try:
+        dirty = subprocess.run(["git", "status", "--porcelain", "--", path], cwd=ROOT,
+                               capture_output=True, text=True, timeout=30).stdout.strip()
+        date = subprocess.run(["git", "log", "-1", "--format=%cs", "--", path], cwd=ROOT,
+                              capture_output=True, text=True, timeout=30).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if dirty:
+        return "not committed yet"
+    return date or None
+
+
+def file_date(rel, doc):
+    for key in ("date", "when", "generated_at", "timestamp"):
+        if isinstance(doc, dict) and isinstance(doc.get(key), str):
+            return doc[key]
+    return git_date(rel)
+
+
+def get(d, *keys):
+    for k in keys:
+        if not isinstance(d, dict) or k not in d:
+            return None
+        d = d[k]
+    return d
+
+
+def num(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+def secs(x):
+    if not num(x):
+        return None
+    if x < 10:
+        return f"{x:.2f}"
+    if x < 100:
+        return f"{x:.1f}"
+    return f"{x:.0f}"
+
+
+def pct(x, signed=False):
+    if not num(x):
+        return None
+    return f"{x * 100:+.2f}%" if signed else f"{x * 100:.2f}%"
+
+
+def mib(b):
+    return f"{b / MiB:,.0f}" if num(b) else None
+
+
+def count(n):
+    return f"{n:,}" if isinstance(n, int) and not isinstance(n, bool) else None
+
+
+def ms(x):
+    return f"{x:.3f}" if num(x) else None
+
+
+def ratio(a, b):
+    if not (num(a) and num(b)) or b <= 0:
+        return None
+    r = a / b
+    return f"{r:.2f}x" if r < 10 else f"{r:.1f}x"
+
+
+def table(headers, rows):
+    """A Markdown table; columns empty in every row are left out."""
+    rows = [[None if c is None else str(c) for c in r] for r in rows]
+    keep = [i for i in range(len(headers)) if any(r[i] not in (None, "") for r in rows)]
+    if not rows or not keep:
+        return ["(no rows)"]
+    out = ["| " + " | ".join(headers[i] for i in keep) + " |",
+           "|" + "|".join("---" for _ in keep) + "|"]
+    for r in rows:
+        out.append("| " + " | ".join("–" if r[i] in (None, "") else r[i] for i in keep) + " |")
+    return out
+
+
+def relpath(p):
+    if not isinstance(p, str):
+        return p
+    for prefix in RECORDED_ROOTS:
+        p = p.replace(prefix, "")
+    return p.replace("/work/shared/", "../shared/")
+
+
+def tidy_cmd(cmd, binary):
+    if not isinstance(cmd, str):
+        return None
+    if isinstance(binary, str) and cmd.startswith(binary):
+        cmd = "vkrad" + cmd[len(binary):]
+    else:
+        first, _, rest = cmd.partition(" ")
+        if os.path.basename(first).startswith("vkrad"):
+            cmd = "vkrad " + rest
+    return relpath(cmd)
+
+
+def header(doc_rel, doc, what, command=None, source=None):
+    lines = [what, ""]
+    date = file_date(doc_rel, doc)
+    lines.append(f"- File: [`bench/{doc_rel}`]({doc_rel}), " + (f"committed {date}." if date else "date unknown."))
+    if command:
+        lines.append(f"- Command: `{command}`" + (f" (from {source})." if source else "."))
+    return lines
+
+
+def charts(names, linked):
+    out = []
+    for n in names:
+        if os.path.exists(os.path.join(HERE, n)):
+            linked.add(n)
+            out.append(f"![{n}]({n})")
+    return out
+
+
+# ------------------------------------------------------ path-tracer races
+
+def time_to(curve, target, tkey):
+    """bench/pathtracer/compare.py's time_to: the first time the curve's
+    error is <= target, log-log interpolated; None if never reached."""
+    pts = [(p.get(tkey), p.get("rel_rmse_lit")) for p in curve]
+    pts = [(t, max(e, 1e-12)) for t, e in pts if num(t) and num(e) and t > 0]
+    if not num(target) or target <= 0:
+        return None
+    for i, (t, e) in enumerate(pts):
+        if e <= target:
+            if i == 0:
+                return t
+            t0, e0 = pts[i - 1]
+            if e == e0:
+                return t
+            f = (math.log(target) - math.log(e0)) / (math.log(e) - math.log(e0))
+            return math.exp(math.log(t0) + f * (math.log(t) - math.log(t0)))
+    return None
+
+
+def pt_time(curve, target):
+    """(warm, cold, extrapolated): the path tracer's time to `target`, or,
+    past its last render, that render's time scaled as error^-2."""
+    warm, cold = time_to(curve, target, "warm_s"), time_to(curve, target, "cold_total_s")
+    if warm is not None or not curve or not num(target) or target <= 0:
+        return warm, cold, False
+    last = curve[-1]
+    e, w, c = last.get("rel_rmse_lit"), last.get("warm_s"), last.get("cold_total_s")
+    if not (num(e) and num(w)):
+        return None, None, False
+    w2 = w * (e / target) ** 2
+    c2 = (c - w) + w2 if num(c) else None
+    return w2, c2, True
+
+
+def race_command(rel, doc):
+    if rel in COMMANDS:
+        return COMMANDS[rel]
+    scene = doc.get("scene")
+    if not isinstance(scene, str):
+        return None, None
+    name = os.path.splitext(os.path.basename(scene))[0]
+    repo_scene = relpath(scene) == f"scenes/{name}.obj"
+    arg = name if repo_scene else relpath(scene)
+    if arg.startswith("../"):
+        arg = "../../" + arg  # compare.py runs in bench/pathtracer
+    parts = ["cd bench/pathtracer && python3 compare.py", f"--scene {arg}"]
+    if num(get(doc, "reference", "spp")):
+        parts.append(f"--ref-spp {doc['reference']['spp']}")
+    size = doc.get("size")
+    if isinstance(size, list) and len(size) == 2:
+        parts.append(f"--size {size[0]}x{size[1]}")
+    convs = [v.get("converge") for v in dicts(doc.get("vkrad"))]
+    if convs:
+        parts.append("--converge " + ",".join("default" if c is None else f"{c:g}" for c in convs))
+    if doc.get("variant") and doc["variant"] != "llvm_ad_rgb":
+        parts.append(f"--variant {doc['variant']}")
+    targets = []
+    for k in doc:
+        if k.startswith("pt_warm_s_to_") and not k.endswith("_corrected"):
+            try:
+                targets.append(float(k[len("pt_warm_s_to_"):]))
+            except ValueError:
+                pass
+    extra = [t for t in targets if t not in (0.03, 0.01)]
+    target = extra[0] if extra else 0.01
+    if extra:
+        parts.append(f"--target {target:g}")
+    curve = dicts(doc.get("pathtracer"))
+    if curve and num(curve[-1].get("rel_rmse_lit")) and curve[-1]["rel_rmse_lit"] >= target:
+        parts.append(f"--max-spp {curve[-1].get('spp')}")  # the race ran out of renders there
+    if doc.get("vkrad_args"):
+        parts.append(f"--vkrad-args=\"{doc['vkrad_args']}\"")
+    if doc.get("tag"):
+        parts.append(f"--tag={doc['tag']}")
+    cam = doc.get("camera") if isinstance(doc.get("camera"), dict) else {}
+    if not repo_scene and cam and not has_camera_line(scene):
+        for key, flag in (("eye", "--eye"), ("look_at", "--look-at"), ("up", "--up")):
+            v = cam.get(key)
+            if isinstance(v, list) and not (key == "up" and v == [0.0, 1.0, 0.0]):
+                parts.append(f"{flag} " + ",".join(f"{x:g}" for x in v))
+        if num(cam.get("fov")):
+            parts.append(f"--fov {cam['fov']:g}")
+    cmd = " ".join(parts)
+    if scene.startswith("/tmp/"):
+        # a generated scene (scenes/generate_scenes.py), not kept
+        cmd = f"python3 scenes/generate_scenes.py --scaling {os.path.dirname(scene)} && " + cmd
+    return cmd, "the settings recorded in the json"
+
+
+def has_camera_line(scene):
+    """Whether the OBJ names its own camera; a generated scene (in /tmp)
+    always does."""
+    if scene.startswith("/tmp/"):
+        return True
+    for path in (scene, os.path.join(os.path.dirname(ROOT), relpath(scene).lstrip("./"))):
+        try:
+            with open(path, errors="replace") as fh:
+                return any(line.startswith("# vkrad camera") for line in fh)
+        except OSError:
+            pass
+    return False
+
+
+def race_name(rel, doc):
+    base = os.path.splitext(os.path.basename(rel))[0][len("race-"):]
+    return base
+
+
+def race_device(rel, doc):
+    version = doc.get("mitsuba") or get(doc, "reference", "mitsuba") or "3"
+    variant = doc.get("variant") or get(doc, "reference", "variant") or ""
+    backend = {"llvm_ad_rgb": "LLVM", "cuda_ad_rgb": "CUDA"}.get(variant, variant)
+    cpus = get(doc, "machine", "cpus") or doc.get("threads")
+    where = "NVIDIA H200" if rel.startswith("h200/") else "lavapipe"
+    return f"vkrad on {where}, Mitsuba {version} {backend}".rstrip() + (f", {cpus} CPUs" if cpus else "")
+
+
+def race_rows(doc):
+    """One row per vkrad run: its figures and the path tracer's to its error."""
+    curve = dicts(doc.get("pathtracer"))
+    rows, notes = [], False
+    for key, label in (("vkrad", None), ("vkrad_before_hierarchical", "before the final gather, hierarchical"),
+                       ("vkrad_before_element", "before the final gather, element by element")):
+        for v in dicts(doc.get(key)):
+            e, wall = v.get("rel_rmse_lit"), v.get("wall_s")
+            warm, cold, extra = pt_time(curve, e)
+            notes |= extra
+            mark = "≈" if extra else ""
+            conv = v.get("converge")
+            setting = "default" if conv is None else f"--converge {conv:g}"
+            if label:
+                setting = f"{setting}, {label}"
+            rows.append([setting, count(v.get("elements")), count(v.get("shots")), secs(wall), pct(e),
+                         pct(v.get("bias_lit"), True), pct(v.get("rel_rmse_lit_corrected")),
+                         mark + secs(warm) if warm else None, mark + secs(cold) if cold else None,
+                         (mark + ratio(warm, wall)) if ratio(warm, wall) else None,
+                         (mark + ratio(cold, wall)) if ratio(cold, wall) else None])
+    return rows, notes
+
+
+RACE_HEADERS = ["vkrad run", "elements", "shots", "wall s", "error", "bias", "error less the reference's noise",
+                "path tracer to that error, warm s", "cold s", "path tracer / vkrad, warm", "cold"]
+EXTRAPOLATED = ("≈: the path tracer did not reach that error within the race; its time is extrapolated "
+                "from its last render as error ∝ 1/√time.")
+
+
+# --------------------------------------------------------------- sections
+
+def gallery(linked):
+    doc = load("gallery.json")
+    if not doc:
+        return [], []
+    cmd, src = COMMANDS["gallery.json"]
+    lines = ["## Gallery", ""]
+    lines += header("gallery.json", doc,
+                    f"`vkrad SCENE --size {doc.get('size', '256x256')}` at its defaults, each run timed as the "
+                    "whole command (start-up and shader compilation included) on lavapipe, 2 cores; error is the "
+                    "relative RMSE over the lit pixels against a Mitsuba 3 path-traced reference with the same "
+                    "camera (`bench/pathtracer/`). The path tracer's time to the same error is read off the race "
+                    "of the same scene (`race-SCENE.json`, below) by its interpolation.", cmd, src)
+    lines.append("")
+    rows, readme, extra_any = [], [], False
+    for r in dicts(doc.get("runs")):
+        scene = r.get("scene")
+        race = load(f"race-{scene}.json") if os.path.exists(os.path.join(HERE, f"race-{scene}.json")) else None
+        warm = cold = None
+        extra = False
+        if race and num(r.get("rel_rmse_lit")):
+            warm, cold, extra = pt_time(dicts(race.get("pathtracer")), r["rel_rmse_lit"])
+        extra_any |= extra and warm is not None
+        mark = "≈" if extra else ""
+        wall = r.get("wall_s")
+        peak, est = r.get("peak_bytes"), r.get("estimate_bytes")
+        rows.append([scene, count(r.get("patches")), secs(wall), secs(r.get("gather_s")), mib(peak), mib(est),
+                     pct(r.get("rel_rmse_lit")), pct(r.get("bias_lit"), True),
+                     mark + secs(warm) if warm else None, mark + secs(cold) if cold else None,
+                     (mark + ratio(warm, wall)) if ratio(warm, wall) else None,
+                     (mark + ratio(cold, wall)) if ratio(cold, wall) else None])
+        readme.append([scene, count(r.get("patches")), f"{secs(wall)} s" if secs(wall) else None,
+                       pct(r.get("rel_rmse_lit"))])
+    lines += table(["scene", "polygons", "wall s", "gather s", "peak MiB", "estimate MiB", "error", "bias",
+                    "path tracer to that error, warm s", "cold s", "path tracer / vkrad, warm", "cold"], rows)
+    if extra_any:
+        lines += ["", EXTRAPOLATED]
+    lines += ["", "The README's gallery table is this table's first columns "
+              "(`python3 bench/results.py --gallery-table`).", "", "Commands and provenance:", ""]
+    for r in dicts(doc.get("runs")):
+        bits = [f"`{r['command']}`" if r.get("command") else None, r.get("provenance")]
+        lines.append(f"- {r.get('scene')}: " + "; ".join(str(b) for b in bits if b))
+        for w in r.get("warnings") if isinstance(r.get("warnings"), list) else []:
+            lines.append(f"  - warning: {relpath(str(w))}")
+    lines += [""] + charts(["gallery.png"], linked) + [""]
+    readme_table = table(["scene", "polygons", "wall time", "error vs path tracer"], readme)
+    return lines, readme_table
+
+
+def races(linked):
+    files = sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json")))
+    files += sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json")))
+    docs = [(rel, load(rel)) for rel in files]
+    docs = [(rel, d) for rel, d in docs if isinstance(d, dict)]
+    if not docs:
+        return []
+    lines = ["## Races against the path tracer", "",
+             "`bench/pathtracer/compare.py` renders a Mitsuba 3 reference (two independent halves, whose "
+             "difference gives its own noise), then the path tracer at powers of two samples per pixel and vkrad "
+             "at its defaults, each a whole render on the same machine, and scores each against the reference: "
+             "relative RMSE over the lit pixels. Warm is a render in a running process; cold adds a fresh "
+             "process's start-up and kernel compilation, comparable with vkrad's whole command. "
+             "The path tracer's time to vkrad's error is interpolated on its curve (log-log).", "",
+             "| race | device | reference spp | its noise | vkrad wall s | error | path tracer to that error, "
+             "warm s | cold s | path tracer / vkrad, warm | cold |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    extra_any = False
+    for rel, d in docs:
+        v = next((x for x in dicts(d.get("vkrad")) if x.get("converge") is None), None)
+        if v is None:
+            continue
+        warm, cold, extra = pt_time(dicts(d.get("pathtracer")), v.get("rel_rmse_lit"))
+        extra_any |= extra and warm is not None
+        mark = "≈" if extra else ""
+        cells = [f"[{rel[:-5]}](#{anchor(rel[:-5])})", race_device(rel, d), count(get(d, "reference", "spp")),
+                 pct(get(d, "reference", "est_noise_rel_rmse_lit")), secs(v.get("wall_s")),
+                 pct(v.get("rel_rmse_lit")), mark + secs(warm) if warm else None,
+                 mark + secs(cold) if cold else None,
+                 (mark + ratio(warm, v.get("wall_s"))) if ratio(warm, v.get("wall_s")) else None,
+                 (mark + ratio(cold, v.get("wall_s"))) if ratio(cold, v.get("wall_s")) else None]
+        lines.append("| " + " | ".join("–" if c is None else c for c in cells) + " |")
+    if extra_any:
+        lines += ["", EXTRAPOLATED]
+    lines.append("")
+    for rel, d in docs:
+        lines += [f"### {rel[:-5]}", ""]
+        cmd, src = race_command(rel, d)
+        scene = relpath(d.get("scene")) or race_name(rel, d)
+        size = d.get("size")
+        size = f"{size[0]}x{size[1]}" if isinstance(size, list) and len(size) == 2 else "256x256"
+        lines += header(rel, d, f"`{scene}` at {size}: {race_device(rel, d)}.", cmd, src)
+        ref = d.get("reference") if isinstance(d.get("reference"), dict) else {}
+        if ref:
+            lines.append(f"- Reference: {count(ref.get('spp')) or '?'} spp in {secs(ref.get('seconds')) or '?'} s, "
+                         f"its own noise {pct(ref.get('est_noise_rel_rmse_lit')) or '?'} (in both sides' errors).")
+        vk = (dicts(d.get("vkrad")) or [{}])[0]
+        if vk.get("cmd"):
+            lines.append(f"- vkrad's command (recorded): `{tidy_cmd(vk['cmd'], d.get('vkrad_binary'))}`")
+        lines.append("")
+        rows, extra = race_rows(d)
+        lines += table(RACE_HEADERS, rows)
+        if extra:
+            lines += ["", EXTRAPOLATED]
+        curve = dicts(d.get("pathtracer"))
+        if curve:
+            lines += ["", "The path tracer's curve:", ""]
+            lines += table(["spp", "warm s", "cold s", "error", "bias"],
+                           [[count(p.get("spp")), secs(p.get("warm_s")), secs(p.get("cold_total_s")),
+                             pct(p.get("rel_rmse_lit")), pct(p.get("bias_lit"), True)] for p in curve])
+        lines += [""] + charts([rel[:-5] + ".png"], linked) + [""]
+    return lines
+
+
+def memory_section(rel, title, linked):
+    doc = load(rel)
+    if not doc:
+        return []
+    cmd, src = COMMANDS.get(rel, (None, None))
+    where = "an NVIDIA H200 with 16 CPU cores" if rel.startswith("h200/") else "lavapipe, 2 cores"
+    lines = [title, ""]
+    lines += header(rel, doc,
+                    f"Peak resident memory of each run (Linux `VmHWM`) against the estimate vkrad makes before "
+                    f"any work; `vkrad SCENE --size {doc.get('size', '256x256')}` at its defaults on {where}, "
+                    "single runs. `bench/memory.py` fails if a peak exceeds its estimate.", cmd, src)
+    lines.append("")
+    rows = []
+    for r in dicts(doc.get("runs")):
+        p, e = r.get("peak_bytes"), r.get("estimate_bytes")
+        rows.append([r.get("scene"), count(r.get("patches")), count(r.get("elements")), secs(r.get("wall_s")),
+                     secs(r.get("gather_s")), mib(p), mib(e), f"{p / e:.2f}" if num(p) and num(e) and e else None])
+    lines += table(["scene", "polygons", "elements solved", "wall s", "gather s", "peak MiB", "estimate MiB",
+                    "peak / estimate"], rows)
+    return lines + [""]
+
+
+def scenes_section(linked):
+    doc = load("scenes.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["scenes.json"]
+    lines = ["## Time, gather cost and memory against polygons", ""]
+    lines += header("scenes.json", doc,
+                    "The runs of `bench/memory.py --large` against input polygons, with a power law fitted to "
+                    "each generated family (`scenes/generate_scenes.py --scaling DIR`: fields of letters R, and "
+                    "curved surfaces in the Cornell room). A traced point is an element centre the final gather "
+                    "traced from, or a pixel block's reflected-light point; the cost a point is the gather's CPU "
+                    "time (wall x threads) over them.", cmd, src)
+    lines.append("")
+    rows = [[r.get("scene"), count(r.get("patches")), secs(r.get("wall_s")), secs(r.get("gather_s")),
+             count(r.get("gather_points")), ms(r.get("gather_ms_per_point")), mib(r.get("peak_bytes"))]
+            for r in dicts(doc.get("runs"))]
+    lines += table(["scene", "polygons", "wall s", "gather s", "traced points", "gather CPU ms a point",
+                    "peak MiB"], rows)
+    fits = doc.get("fits") if isinstance(doc.get("fits"), dict) else {}
+    if fits:
+        lines += ["", "Fitted exponents (quantity ∝ polygons^k):", ""]
+        frows = []
+        for fam, f in fits.items():
+            if not isinstance(f, dict):
+                continue
+            pr = f.get("polygons")
+            span = f"{count(pr[0])} to {count(pr[1])}" if isinstance(pr, list) and len(pr) == 2 else None
+            frows.append([fam, span] + [f"{f[k]:.2f}" if num(f.get(k)) else None
+                                        for k in ("wall", "gather_per_point", "peak")])
+        lines += table(["family", "polygons", "wall", "gather cost a point", "peak memory"], frows)
+    return lines + [""] + charts(["scenes.png"], linked) + [""]
+
+
+def scaling_section(linked):
+    doc = load("scaling.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["scaling.json"]
+    lines = ["## Solve time against elements", ""]
+    what = doc.get("what") or "solve seconds against element count"
+    lines += header("scaling.json", doc,
+                    f"The solver alone on `{doc.get('scene', 'cornell')}`, element by element and hierarchical, "
+                    f"to `--converge {doc.get('converge', '?')}` on {doc.get('device', 'the device')}: {what}.",
+                    cmd, src)
+    lines.append("")
+    rows = [[r.get("solver"), count(r.get("elements")), count(r.get("shots")), secs(r.get("seconds")),
+             f"{r['residual']:.4f}" if num(r.get("residual")) else None, pct(r.get("vs_element_rel_rms")),
+             pct(r.get("vs_element_bias"), True)] for r in dicts(doc.get("runs"))]
+    lines += table(["solver", "elements", "shots", "solve s", "residual", "difference from element-by-element",
+                    "bias"], rows)
+    fe = doc.get("fitted_exponent") if isinstance(doc.get("fitted_exponent"), dict) else {}
+    if fe:
+        lines += ["", "Fitted growth (seconds ∝ elements^k, meshes of 2,000 elements and more): " +
+                  ", ".join(f"{k} {v:.2f}" for k, v in fe.items() if num(v)) + "."]
+    return lines + [""] + charts(["scaling.png"], linked) + [""]
+
+
+def gather_cost_section(linked):
+    doc = load("gather_cost.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["gather_cost.json"]
+    lines = ["## The final gather's cost a point", ""]
+    le = doc.get("link_error")
+    lines += header("gather_cost.json", doc,
+                    "For each scene, the default solve, then one gather over a fixed sample of element centres: "
+                    "the CPU milliseconds a point (wall x threads), with the clustered source hierarchy and with "
+                    "even clusters only, and how far the two results differ against the noise of one estimate"
+                    + (f"; link error {le:.3g}" if num(le) else "")
+                    + (f"; {doc['device']}, {doc.get('threads', '?'):g} threads" if doc.get("device") and
+                       num(doc.get("threads")) else "") + ".", cmd, src)
+    lines.append("")
+    rows = [[r.get("scene"), count(r.get("patches")), count(r.get("elements")), count(r.get("points")),
+             secs(r.get("setup_s")), ms(r.get("ms_per_point")), ms(r.get("ms_per_point_even_clusters_only")),
+             f"{r['rel_rms_between_pct']:.3f}%" if num(r.get("rel_rms_between_pct")) else None,
+             f"{r['noise_one_estimate_pct']:.3f}%" if num(r.get("noise_one_estimate_pct")) else None]
+            for r in dicts(doc.get("rows"))]
+    lines += table(["scene", "polygons", "elements", "points", "set-up s", "ms a point", "even clusters only",
+                    "difference", "noise of one estimate"], rows)
+    return lines + ["", "The rows name the scenes the bench was given (built-in names, or the stems of .obj files).", ""]
+
+
+def bench_section(linked):
+    doc = load("bench.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["bench.json"]
+    size = doc.get("image_size")
+    size = f"{size[0]}x{size[1]}" if isinstance(size, list) and len(size) == 2 else "?"
+    lines = ["## Form-factor methods: error against time", ""]
+    lines += header("bench.json", doc,
+                    "`vkrad bench`: the form-factor sweeps are raw solutions on a coarse mesh, solved element by "
+                    f"element to {doc.get('converge', '?')} and shown with the solve's own vertex values, timed "
+                    "as the solve; `default` is `vkrad SCENE` at its defaults (and at 2x and 4x its edges), final "
+                    "gather included, timed whole. Error is the relative RMS over the lit pixels against a "
+                    f"mesh-free reference (per-pixel gather from a finer converged solution); {size} images on "
+                    f"{doc.get('device', 'the device')}"
+                    + (f"; the whole bench took {doc['total_seconds']:.0f} s" if num(doc.get("total_seconds")) else "")
+                    + ".", cmd, src)
+    lines.append("")
+    refs = dicts(doc.get("references"))
+    if refs:
+        lines += table(["reference", "source elements", "shots", "seconds"],
+                       [[r.get("scene"), count(r.get("elements")), count(r.get("shots")), secs(r.get("wall_seconds"))]
+                        for r in refs])
+        lines.append("")
+    rows = [[p.get("scene"), p.get("method"), p.get("setting"), count(p.get("elements")),
+             count(p.get("display_elements")), count(p.get("shots")), secs(p.get("wall_seconds")),
+             pct(p.get("error"))] for p in dicts(doc.get("points"))]
+    lines += table(["scene", "series", "setting", "elements solved", "elements shown", "shots", "wall s", "error"],
+                   rows)
+    return lines + [""] + charts(["bench.png"], linked) + [""]
+
+
+def meshers_section(linked):
+    doc = load("meshers.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["meshers.json"]
+    lines = ["## Meshers: error against elements and time", ""]
+    lines += header("meshers.json", doc,
+                    f"`vkrad bench --meshers` on `{doc.get('scene', 'simple')}`: "
+                    + (doc.get("method") or "uniform against discontinuity meshing")
+                    + (f". Reference: {doc['reference']}" if doc.get("reference") else "") + ".", cmd, src)
+    lines.append("")
+    rows = [[p.get("mesher"), p.get("setting"), count(p.get("solved_elements")), count(p.get("elements")),
+             secs(p.get("wall_seconds")), pct(p.get("error")), pct(p.get("estimated_error"))]
+            for p in dicts(doc.get("points"))]
+    lines += table(["mesher", "setting", "elements solved", "elements shown", "wall s", "error", "estimated error"],
+                   rows)
+    return lines + [""] + charts(["meshers.png", "meshers-reference.png"], linked) + [""]
+
+
+def other_files(handled):
+    rest = []
+    for p in sorted(glob.glob(os.path.join(HERE, "*.json")) + glob.glob(os.path.join(HERE, "h200", "*.json"))):
+        rel = os.path.relpath(p, HERE)
+        if rel not in handled:
+            rest.append(rel)
+    if not rest:
+        return []
+    lines = ["## Other files", "", "Not summarised here:", ""]
+    for rel in rest:
+        date = file_date(rel, load(rel))
+        lines.append(f"- [`bench/{rel}`]({rel}), " + (f"committed {date}" if date else "date unknown"))
+    return lines + [""]
+
+
+def other_charts(linked):
+    try:
+        tracked = subprocess.run(["git", "ls-files", "--", "bench"], cwd=ROOT, capture_output=True, text=True,
+                                 timeout=30).stdout.split()
+        pngs = [os.path.relpath(os.path.join(ROOT, t), HERE) for t in tracked if t.endswith(".png")]
+    except (OSError, subprocess.SubprocessError):
+        pngs = []
+    if not pngs:
+        pngs = [os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "**", "*.png"), recursive=True)]
+    rest = sorted(p for p in pngs if p not in linked and not p.startswith("pathtracer/"))
+    if not rest:
+        return []
+    lines = ["## Other charts", "", "Committed pictures with no JSON of their own:", ""]
+    for p in rest:
+        lines.append(f"- [`bench/{p}`]({p})" + (f": {CAPTIONS[p]}" if p in CAPTIONS else ""))
+    return lines + [""]
+
+
+def main():
+    linked = set()
+    gal, readme_table = gallery(linked)
+    if "--gallery-table" in sys.argv[1:]:
+        print("\n".join(readme_table))
+        return
+    body = []
+    body += gal
+    body += races(linked)
+    body += memory_section("memory.json", "## Memory against the estimate", linked)
+    body += scenes_section(linked)
+    body += gather_cost_section(linked)
+    body += scaling_section(linked)
+    body += bench_section(linked)
+    body += meshers_section(linked)
+    h200 = memory_section("h200/memory-h200.json", "## Memory and time on an NVIDIA H200", linked)
+    if h200:
+        body += h200
+        body += ["The H200 runs' scripts and logs are in `bench/h200/` (`gpu_run*.sh`, `run*-log.txt`).", ""]
+    handled = {"gallery.json", "memory.json", "scenes.json", "gather_cost.json", "scaling.json", "bench.json",
+               "meshers.json", "h200/memory-h200.json"}
+    handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))}
+    handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json"))}
+    body += other_files(handled)
+    body += other_charts(linked)
+
+    toc = [l[3:] for l in body if l.startswith("## ")]
+    head = ["# vkrad: measured results", "",
+            "Generated by `python3 bench/results.py` from bench/*.json; do not edit by hand.", "",
+            "Every figure on this page is read from the JSON file its section names; each section says the "
+            "command that writes that file and when the file was last committed. Times are wall seconds, memory "
+            "is in MiB (2^20 bytes), errors are relative RMS over the lit pixels. \"Path tracer / vkrad\" is the "
+            "path tracer's time to vkrad's error over vkrad's time: above 1, vkrad got there first. Unless a section says "
+            "otherwise, vkrad ran on lavapipe (Mesa's CPU Vulkan driver) on 2 cores with nothing else running.",
+            ""]
+    head += [f"- [{t}](#{anchor(t)})" for t in toc] + [""]
+    text = "\n".join(head + body).rstrip() + "\n"
+    with open(OUT, "w") as fh:
+        fh.write(text)
+    print(f"wrote {os.path.relpath(OUT, ROOT)} ({text.count(chr(10))} lines)")
+
+
+def anchor(title):
+    """GitHub's heading anchor."""
+    out = []
+    for ch in title.lower():
+        if ch.isalnum() or ch in "-_":
+            out.append(ch)
+        elif ch == " ":
+            out.append("-")
+    return "".join(out)
+
+
+if __name__ == "__main__":
+    main()
