@@ -13,7 +13,8 @@
 //! (`python3 bench/memory.py` checks the peak against the estimate on
 //! every scene of the corpus) and rounded up.
 
-use super::{display_request, gathers_at_pixels, mesh_settings, Job};
+use super::pipeline::{display_request, gathers_at_pixels, mesh_settings};
+use super::Job;
 use crate::error::{Error, Result};
 use crate::gather::pixels::silhouettes_refined;
 use crate::gather::LINKS_BUDGET;

@@ -1,7 +1,7 @@
 //! A corpus of bad scenes, generated here (no fixture files), each run
 //! through the `vkrad` binary in its own temp folder:
 //!
-//! `vkrad scene.obj -o out.png --size 32x32 --hemicube-res 16 --max-shots 200`
+//! `vkrad scene.obj -o out.png --size 32x32 --tune hemicube_res=16 --tune max_shots=200`
 //!
 //! Every case ends in exactly one documented way:
 //! - a clear error: non-zero exit, the message names `scene.obj:LINE` (or the

@@ -232,7 +232,7 @@ fn written_files_follow_the_umask() {
         let out = Command::new("sh")
             .arg("-c")
             .arg(format!(
-                "umask {umask} && exec \"$0\" simple -o simple.png --export simple.glb --size 32x24 --hemicube-res 32 --no-final-gather"
+                "umask {umask} && exec \"$0\" simple -o simple.png --export simple.glb --size 32x24 --tune hemicube_res=32 --tune final_gather=false"
             ))
             .arg(env!("CARGO_BIN_EXE_vkrad"))
             .current_dir(&dir)
@@ -462,7 +462,7 @@ fn wireframe_darkens_mesh_edges() {
 }
 
 /// The exported mesh is the display mesh the final gather shaded (finer
-/// than the solved one), and `--no-final-gather` exports the solved mesh.
+/// than the solved one), and `--tune final_gather=false` exports the solved mesh.
 #[test]
 fn the_export_is_the_gathered_display_mesh() {
     let dir = temp_dir("display");
@@ -507,7 +507,7 @@ fn the_export_is_the_gathered_display_mesh() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Regression: `--no-final-gather` on a scene of many patches ran for over
+/// Regression: without the final gather (`--tune final_gather=false`), a scene of many patches ran for over
 /// 20 minutes (rfield) while its help said it was faster: the solve must
 /// then shoot the light away on its own. vkrad says so, and how to bound
 /// it; on a scene of a few patches it says nothing.
