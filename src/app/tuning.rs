@@ -175,7 +175,7 @@ pub static TUNING: &[TuningKey] = &[
         get: |j| hierarchy(j).uniformity.to_string(),
         set: |j, v| {
             let ratio: f64 = parse(v)?;
-            if !(ratio >= 1.0) {
+            if !(1.0..).contains(&ratio) {
                 return Err(Error::Invalid("must be at least 1".into()));
             }
             hierarchy_mut(j)?.uniformity = ratio;
@@ -239,7 +239,7 @@ pub static TUNING: &[TuningKey] = &[
         get: |j| gather(j).reuse.to_string(),
         set: |j, v| {
             let reuse: f32 = parse(v)?;
-            if !(reuse >= 0.0) {
+            if !(0.0..).contains(&reuse) {
                 return Err(Error::Invalid("must be 0 or more".into()));
             }
             gather_mut(j)?.reuse = reuse;

@@ -40,11 +40,11 @@ use glam::Vec3;
 
 use super::gpu_rays::GpuRays;
 use super::links::Links;
-use super::point_gather::Gather;
-use super::point_gather::RANDOM_SEED as SEED;
 use super::receiver::Receiver;
 use super::reflected_cache::HarmonicDistance;
 use super::Frame;
+use super::Gather;
+use super::RANDOM_SEED as SEED;
 use crate::formfactor::sampling::{grid, Pcg32};
 use crate::geom::tangent_frame;
 use crate::gpu::rays::Ray;

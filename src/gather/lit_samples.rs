@@ -35,8 +35,8 @@ use rayon::prelude::*;
 
 use super::exposure::ExposedPart;
 use super::is_even;
-use super::point_gather::Gather;
 use super::receiver::Receiver;
+use super::Gather;
 use crate::formfactor::sampling::Pcg32;
 use crate::mesh::Mesh;
 use crate::solve::hierarchy::Node;

@@ -5,70 +5,23 @@
 //! reflected cache and the GPU can each take their share.
 
 use std::f32::consts::PI;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::Ordering;
 
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::clusters::Clusters;
 use super::exposure;
-use super::gpu_direct::GpuDirect;
-use super::gpu_rays::GpuRays;
-use super::hemisphere_rays::HemisphereRays;
 use super::links::{Links, LINKS_BUDGET};
-use super::lit_samples::{DirectMeans, Emitters, POINT_RAYS};
+use super::lit_samples::POINT_RAYS;
 use super::receiver::Receiver;
-use super::reflected_cache::{HarmonicDistance, ReflectedCache};
+use super::reflected_cache::HarmonicDistance;
 use super::{
-    is_even, Frame, Meter, PointLight, Source, VertexGather, CHUNK, CLOSE_FF, NEAR_RADIUS,
-    PIXEL_EMITTER_RAYS,
+    is_even, Frame, Gather, Gathered, Meter, PointLight, CHUNK, CLOSE_FF, NEAR_RADIUS,
+    PIXEL_EMITTER_RAYS, RANDOM_SEED,
 };
-use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::Pcg32;
 use crate::geom::{nearest_in_polygon, tangent_frame};
-use crate::scene::Scene;
-use crate::solve::hierarchy::ShooterTree;
 use crate::trace::{self, TracedMap};
-
-/// Seeds every point's rays (its place in its list the stream).
-pub(super) const RANDOM_SEED: u64 = 0x005e_ed0f_9a7e;
-
-/// What both passes share.
-pub(super) struct Gather<'a> {
-    pub(super) scene: &'a Scene,
-    pub(super) tree: &'a ShooterTree,
-    pub(super) sources: Vec<Source>,
-    pub(super) occluders: Occluders,
-    pub(super) clusters: Clusters,
-    pub(super) settings: VertexGather,
-    /// Mean reflectance per patch and per solved element (textures
-    /// averaged over each): a point's value is its patch's, an element's
-    /// its own.
-    pub(super) patch_rho: Vec<Vec3>,
-    pub(super) element_rho: Vec<Vec3>,
-    /// The last pass's reflected light at the element centres, for the
-    /// display points (`None` during the passes).
-    pub(super) reflected_cache: Option<ReflectedCache>,
-    /// Points since the cache was built that took their reflected light
-    /// from it, and that gathered it.
-    pub(super) reused: [AtomicUsize; 2],
-    /// The direct light's pass on the GPU, when asked for.
-    pub(super) gpu_direct: Option<GpuDirect>,
-    /// The emitters a point's direct light is traced to where no exposed
-    /// point holds it ([`lit_samples`](super::lit_samples)).
-    pub(super) emitters: Emitters,
-    /// The direct light on each element, at its exposed points (`Some`:
-    /// near reflecting sources lend it at their samples), and how much the
-    /// emitters' light has grown since (by what they reflect).
-    pub(super) direct_map: Option<Arc<DirectMeans>>,
-    pub(super) direct_scale: Vec3,
-    /// The patches whose light hemisphere rays gather.
-    pub(super) hemisphere_rays: HemisphereRays,
-    /// The GPU pass that traces the first-hit rays (the hemisphere
-    /// rays, the camera rays), when asked for.
-    pub(super) gpu_rays: Option<GpuRays>,
-}
 
 /// What is known of a point's light before it gathers: its direct light
 /// and its hemisphere rays' first hits, where the GPU gathered them.
@@ -115,20 +68,6 @@ impl Sources {
         direct: false,
         ..Sources::ALL
     };
-}
-
-/// A point's gathered light, split by the kind of source.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Gathered {
-    /// Sum of B F V over emitting sources.
-    pub(super) direct: Vec3,
-    /// ... and over the others.
-    pub(super) reflected: Vec3,
-    /// How far the reflecting sources are.
-    distance: HarmonicDistance,
-    /// The distance to the nearest surface met (measured only when
-    /// recording).
-    clearance: f32,
 }
 
 impl Default for Gathered {

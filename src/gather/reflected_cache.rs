@@ -27,8 +27,8 @@ use std::collections::HashMap;
 use glam::{Mat3, Vec3};
 
 use super::exposure::ExposedPart;
-use super::point_gather::Gathered;
 use super::Frame;
+use super::Gathered;
 use crate::geom::tangent_frame;
 use crate::mesh::Mesh;
 

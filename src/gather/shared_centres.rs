@@ -22,8 +22,8 @@ use std::f32::consts::PI;
 use glam::Vec3;
 
 use super::exposure::ExposedPart;
-use super::point_gather::Gathered;
 use super::reflected_cache::cell_of;
+use super::Gathered;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 

@@ -8,8 +8,9 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::point_gather::{Gathered, Linking};
+use super::point_gather::Linking;
 use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
+use super::Gathered;
 use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::vertex_frames;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};

@@ -151,7 +151,7 @@ pub fn image_barrier(
 ) -> vk::ImageMemoryBarrier2<'static> {
     vk::ImageMemoryBarrier2::default()
         .image(image)
-        .subresource_range(super::memory::subresource_range(aspect))
+        .subresource_range(subresource_range(aspect))
         .old_layout(layouts.0)
         .new_layout(layouts.1)
         .src_stage_mask(src.0)
@@ -384,4 +384,15 @@ pub fn reset_item_frame(
             .raw
             .cmd_fill_buffer(cmd, atomics, 0, vk::WHOLE_SIZE, 0)
     };
+}
+
+/// The one mip level and layer of an image of `aspect`.
+pub fn subresource_range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: aspect,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: 0,
+        layer_count: 1,
+    }
 }

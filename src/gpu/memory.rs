@@ -7,7 +7,7 @@ use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 
-use super::commands::{barriers, buffer_barrier, Commands};
+use super::commands::{barriers, buffer_barrier, subresource_range, Commands};
 use super::context::Device;
 use crate::error::{Error, Result};
 
@@ -279,16 +279,6 @@ impl Drop for Image {
         if let Some(a) = self.allocation.take() {
             free(&self.device, a);
         }
-    }
-}
-
-pub fn subresource_range(aspect: vk::ImageAspectFlags) -> vk::ImageSubresourceRange {
-    vk::ImageSubresourceRange {
-        aspect_mask: aspect,
-        base_mip_level: 0,
-        level_count: 1,
-        base_array_layer: 0,
-        layer_count: 1,
     }
 }
 

@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 use ash::vk;
 use serde_json::{json, Value};
 
+use super::commands::Commands;
 use super::context::Device;
 use super::instrument::{begin_label, end_label, Counters};
 use crate::error::{Error, Result};
@@ -506,6 +507,36 @@ impl Drop for GpuProfiler {
             }
         }
     }
+}
+
+/// For tests of the labels: records (and never submits) a shot "shot
+/// probe" around a pass "hemicube render", as the shooting passes label
+/// them, holding a memory barrier whose access (colour attachment
+/// writes) its stage (compute) cannot make: an error the validation layer
+/// reports with the labels open at it, and one any driver records
+/// harmlessly. (It was a dispatch with no pipeline bound, which lavapipe
+/// records but NVIDIA's driver (580, H200) crashes on.)
+#[doc(hidden)]
+pub fn record_labelled_fault(device: &Arc<Device>) -> Result<()> {
+    let cmds = Commands::new(device, "label probe commands")?;
+    let mut profiler = GpuProfiler::new(device, "label probe", 4)?;
+    let cmd = cmds.begin()?;
+    profiler.begin(cmd);
+    profiler.begin_shot(cmd, || ("shot probe".into(), serde_json::json!({})));
+    profiler.begin_pass(cmd, "hemicube render");
+    let barriers = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+        .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+        .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ)];
+    let info = vk::DependencyInfo::default().memory_barriers(&barriers);
+    // SAFETY: a valid command buffer in the recording state; the barrier
+    // is deliberately invalid for the validation layer to report, and the
+    // buffer is never submitted.
+    unsafe { device.raw.cmd_pipeline_barrier2(cmd, &info) };
+    profiler.end_pass(cmd);
+    profiler.end_shot(cmd);
+    cmds.end()
 }
 
 #[cfg(test)]

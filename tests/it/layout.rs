@@ -213,17 +213,20 @@ fn modules_import_only_what_the_architecture_allows() {
 fn resolved_paths(module: &[String], code: &str, children: &BTreeSet<String>) -> Vec<Vec<String>> {
     let mut raw: Vec<Vec<String>> = Vec::new();
     let code: String = code_lines(code).collect::<Vec<_>>().join("\n");
-    // `use` statements, trees expanded.
+    // `use` statements, trees expanded; what is left is searched for
+    // inline paths.
     let mut rest = code.as_str();
+    let mut inline = String::new();
     while let Some(i) = find_use(rest) {
         let after = &rest[i..];
         let end = after.find(';').unwrap_or(after.len());
         expand_use_tree(after[..end].trim(), &mut Vec::new(), &mut raw);
+        inline.push_str(&rest[..i]);
         rest = &after[end..];
     }
-    // Inline paths.
+    inline.push_str(rest);
     for root in ["crate::", "super::", "self::"] {
-        let mut rest = code.as_str();
+        let mut rest = inline.as_str();
         while let Some(i) = rest.find(root) {
             let boundary = rest[..i]
                 .chars()
@@ -231,20 +234,7 @@ fn resolved_paths(module: &[String], code: &str, children: &BTreeSet<String>) ->
                 .is_none_or(|c| !(c.is_alphanumeric() || c == '_' || c == ':'));
             let after = &rest[i..];
             if boundary {
-                let path: Vec<String> = after
-                    .split("::")
-                    .map(|seg| {
-                        seg.chars()
-                            .take_while(|c| c.is_alphanumeric() || *c == '_')
-                            .collect::<String>()
-                    })
-                    .scan(true, |go, seg| {
-                        let keep = *go && !seg.is_empty();
-                        *go = keep;
-                        keep.then_some(seg)
-                    })
-                    .collect();
-                raw.push(path);
+                raw.push(path_at(after));
             }
             rest = &after[root.len()..];
         }
@@ -252,6 +242,29 @@ fn resolved_paths(module: &[String], code: &str, children: &BTreeSet<String>) ->
     raw.into_iter()
         .filter_map(|p| resolve(module, &p, children))
         .collect()
+}
+
+/// The path `a::b::c` at the start of `text`, up to the first character
+/// that is not part of it.
+fn path_at(text: &str) -> Vec<String> {
+    let mut path = Vec::new();
+    let mut rest = text;
+    loop {
+        let ident: String = rest
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect();
+        if ident.is_empty() {
+            break;
+        }
+        rest = &rest[ident.len()..];
+        path.push(ident);
+        match rest.strip_prefix("::") {
+            Some(r) => rest = r,
+            None => break,
+        }
+    }
+    path
 }
 
 /// Where the next `use ` statement starts (at a line start, after `pub`

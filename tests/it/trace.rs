@@ -232,7 +232,7 @@ fn the_validation_layer_sees_the_pass_and_shot_labels() {
         report.solution.shots
     );
     // An error inside them names both.
-    vkrad::gpu::instrument::record_labelled_fault(&device).unwrap();
+    vkrad::gpu::profiler::record_labelled_fault(&device).unwrap();
     let errors = device.validation_errors();
     assert!(
         errors
