@@ -1,5 +1,5 @@
 //! Embeds every committed SPIR-V module from `spirv/` so that a plain
-//! `cargo build` needs no shader compiler. `tests/shaders.rs` proves the
+//! `cargo build` needs no shader compiler. `tests/it/shaders.rs` proves the
 //! committed modules match `glsl/` and pass `spirv-val`.
 
 use std::fmt::Write as _;

@@ -95,7 +95,7 @@ pub(super) const CLOSE_FF: (f32, f32) = (0.05, 0.2);
 
 /// Default [`VertexGather::link_opening`]: half the opening elsewhere,
 /// since the links freeze the hierarchy as the first pass's light (evened
-/// out by the ambient term) opened it. Measured in ARCHITECTURE.md
+/// out by the ambient term) opened it. Measured in bench/NOTES.md
 /// ("Only the first pass traces").
 pub(super) const LINK_OPENING: f32 = 0.25;
 

@@ -91,7 +91,7 @@ impl StageTimes {
     }
 
     /// One object per stage, as the JSON report's `timing.passes` holds
-    /// them (README, "The JSON report"): count, total, mean, min, max,
+    /// them (PROFILING.md, "The JSON report"): count, total, mean, min, max,
     /// median, share of all stages, and the shader invocations.
     pub fn passes_json(&self) -> Vec<Value> {
         let all = self.total().as_secs_f64().max(1e-12);

@@ -161,7 +161,7 @@ pub const SILHOUETTE_COVERAGE: u32 = 4;
 /// many times fewer rays (at least 16): where in each patch's part of the
 /// pixel its direct light is sampled matters more than how many rays each
 /// sample traces. Measured on `rfield` at 256x256 (a quarter of its
-/// pixels; ARCHITECTURE.md, "Silhouettes"): 4x the coverage and 4x the
+/// pixels; bench/NOTES.md, "Silhouettes"): 4x the coverage and 4x the
 /// direct samples took the lit error from 2.77% to 2.37%, 16x the direct
 /// samples to 2.17%, 16x both to 2.19% (each with every two patches a
 /// silhouette; with only two surfaces or materials, 2.21%).
