@@ -26,11 +26,8 @@
 //! with exact form factors and ray-traced visibility, so the form-factor
 //! method would only reach the image through the indirect light of the
 //! sources, and the sweeps would measure the gather rather than the
-//! methods. Measured once (the bench mesh solved element by element to
-//! 1e-3, then the default display mesh and gather): a 16, 256 or 1024 px
-//! hemicube and 1 or 256 rays all gave 4.41-4.43% on `cornell` and 0.84%
-//! on `simple`, where the same solves shown raw range over 23-30% and
-//! 12-18%. The `default` series is what a user gets.
+//! methods: through the gather, every method gives nearly the same image.
+//! The `default` series is what a user gets.
 //!
 //! **Errors** are the relative RMS difference between an image and the
 //! reference's (same camera, 96 x 96 pixels, 4 x 4 samples a pixel, linear

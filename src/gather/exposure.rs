@@ -33,15 +33,8 @@ const EXPOSURE_RAYS: usize = 8;
 /// The fewest points a side a small element takes: the grid is the
 /// largest element's, and a smaller one takes points at that spacing,
 /// in proportion to its longest edge, but never fewer than this (its
-/// exposed share needs a few). Before, every element took the full grid:
-/// on `surfaces-200k` (201,552 elements, nearly all tiny triangles of
-/// smooth surfaces) the test and the direct means over its points took
-/// 5.1 s of an 8.6 s gather. Measured at 256x256 against the path-traced
-/// references, whole commands on 2 cores: `surfaces-200k` 13.1 -> 8.0 s
-/// (peak 895 -> 613 MB; the image moved by 7e-6 rel. RMSE),
-/// `surfaces-8k` 2.58 -> 2.35 s at 1.255% lit error either way,
-/// `rfield` 5.1 -> 4.4 s at 1.841% -> 1.88% (its letters' faces took the
-/// floor's spacing), the Cornell box 1.197% -> 1.189% in the same time.
+/// exposed share needs a few). With the full grid for every element, a
+/// scene of many tiny elements spent most of its gather on their points.
 const MIN_GRID: usize = 2;
 
 /// Every element's exposed part, from a grid of points on it: a point is

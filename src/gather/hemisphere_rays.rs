@@ -17,16 +17,10 @@
 //! hold at least [`SMALL_SHARE`] of the reflecting area. There the rays
 //! gather every reflecting patch, large ones too: they are sent anyway,
 //! and a large patch visited exactly beside them cost more than it
-//! gained. Measured at 256x256 against path-traced references, whole
-//! commands on 2 cores: `rfield` 4.7 s at 1.98% lit error by rays alone,
-//! 8.2 s at 1.88% with its floor visited exactly, 8.7 s at 2.01% visiting
-//! every patch; CornellBox-Sphere (2,188 patches) 2.8 s at 0.84% (bias
-//! +0.12%), 4.8 s at 0.98% with the walls exact, 4.9 s at 0.95% (bias
-//! -0.45%) visiting every patch. A scene of a few large patches (the
-//! Cornell box) is gathered exactly, as before: there one visit of a wall
-//! has no noise, and rays alone gave 1.62% for the exact gather's 1.20%.
-//! The emitters are always exact: their direct light and shadows are
-//! what the image must resolve.
+//! gained. A scene of a few large patches (the Cornell box) is gathered
+//! exactly, as before: there one visit of a wall has no noise, where rays
+//! alone would add some. The emitters are always exact: their direct light
+//! and shadows are what the image must resolve.
 //!
 //! Where a ray lands, the radiosity is the element's light less its
 //! direct part (its mean, from the passes), plus the direct light at the
@@ -52,25 +46,21 @@ use crate::scene::{Patch, Scene};
 use crate::solve::hierarchy::ShooterTree;
 use rayon::prelude::*;
 
-/// Default [`VertexGather::hemisphere_rays`](super::VertexGather::hemisphere_rays). Measured on `rfield` at
-/// 256x256 against the path-traced reference (65,536 spp), whole
-/// commands on 2 cores: 128 rays 2.11% lit error in 4.0 s, 256 1.98% in
-/// 4.7 s, 512 1.94% in 6.3 s (visiting every patch: 2.01% in 8.7 s).
+/// Default [`VertexGather::hemisphere_rays`](super::VertexGather::hemisphere_rays).
+/// Fewer rays show as noise in the reflected light; more cost time for
+/// little less error.
 pub const HEMISPHERE_RAYS: usize = 256;
 
 /// The element centres send this share of [`VertexGather::hemisphere_rays`](super::VertexGather::hemisphere_rays).
-/// Measured on `rfield` (whole commands, 2 cores, interleaved): all of
-/// them 1.983% lit error in 4.89 s, half 1.987% in 4.65 s, a quarter
-/// 2.012%, an eighth 2.040% in 4.27 s.
+/// Half the rays save time at about the same error; fewer begin to cost
+/// accuracy.
 pub(super) const CENTRE_RAYS_SHARE: usize = 2;
 
 /// Exposed points a side of each element where hemisphere rays gather:
 /// a ray's landing reads the direct light at the nearest, so their
-/// spacing is how sharp a shadow it reads. Measured on `rfield` (whole
-/// commands): 4 (the exposure test's own, [`EXPOSURE_GRID`](super::exposure::EXPOSURE_GRID)) 1.987% lit
-/// error in 4.52 s, 6 1.841% in 4.94 s, 8 1.818% in 5.82 s; but
-/// CornellBox-Sphere 0.84% -> 0.91% (bias +0.12% -> +0.01%) at 6. On the
-/// Cornell box, gathered without the rays, 6 cost 10% for nothing.
+/// spacing is how sharp a shadow it reads. 6 reads shadows sharper than
+/// the exposure test's own [`EXPOSURE_GRID`](super::exposure::EXPOSURE_GRID)
+/// at a modest cost; more cost time for little gain.
 pub(super) const LANDING_EXPOSURE_GRID: usize = 6;
 
 /// A patch under this share of the scene's area is small.

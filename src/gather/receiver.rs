@@ -203,15 +203,10 @@ fn reflector_rays(exact: f32, near: bool, settings: &VertexGather) -> usize {
     ((exact * RAYS_PER_FORM_FACTOR).ceil() as usize).clamp(fewest, settings.reflector_rays)
 }
 
-/// Rays to a reflecting node per unit of its form factor. Measured at
-/// 256x256 against the path-traced references (one or two runs each,
-/// beside each other, a noisy machine): 128 (and at most 16) gave `rfield`
-/// 2.19% and the Cornell box 1.23%; 256 (at most 32) 2.13% and 1.20% at
-/// the same time within the noise (the Cornell box at 800x800 3.24 s
-/// against 3.19 s, medians of three); 512 (at most 64) 2.11% and 1.14%,
-/// but 9-10% slower at 800x800 and on `curved`. A ray costs little beside
-/// a node's exact form factor; the reflected light's noise shows in the
-/// image, where the pixels' reflected points are interpolated.
+/// Rays to a reflecting node per unit of its form factor. A ray costs
+/// little beside a node's exact form factor; the reflected light's noise
+/// shows in the image, where the pixels' reflected points are
+/// interpolated. Twice as many cost time for little less error.
 const RAYS_PER_FORM_FACTOR: f32 = 256.0;
 
 /// A convex polygon's fan triangles from its corner 0 and their

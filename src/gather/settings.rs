@@ -101,26 +101,13 @@ pub(super) const LINK_OPENING: f32 = 0.25;
 
 /// Default [`VertexGather::link_error`].
 ///
-/// Measured at 1,000 element centres against the gather with even
-/// clusters only (`cargo bench --bench gather_cost -- --points 1000`, each
-/// point gathered twice for the noise): on `rfield` 0.96 ms against 5.6 ms
-/// of CPU a point, a difference of 1.28% rel. RMS where the two
-/// estimates' noise alone gives 1.16%, mean +0.21%; on `curved.obj` 0.39
-/// against 0.74 ms, mean -0.04%; the Cornell box unchanged. Against the
-/// path-traced references (`bench/pathtracer/compare.py`, 256x256) 0.1
-/// against 0.01 made `rfield`'s whole run 25.9 s against 35.8 s at the
-/// same lit error (3.48% against 3.49%, bias -0.10% against -0.55%), the
-/// Cornell box's unchanged (1.70%); 0.2 and 0.4 gained no more.
+/// Opening fewer links than at 0.01 saves much of the gather's time at
+/// about the same error; looser values gained no more.
 pub const LINK_ERROR: f32 = 0.1;
 
 /// Default [`VertexGather::reuse`].
 ///
-/// Measured against the path-traced references
-/// (`bench/pathtracer/compare.py`, 256x256, gather wall time medians of
-/// three, interleaved): on the Cornell box at the pixels 0.25 gave 1.60%
-/// lit rel. RMSE with a 2.90 s gather, 0.5 1.71% with 2.40 s, none 1.59%
-/// with 3.31 s; with `--shade mesh` 1.75% against 1.85% (3.1 s against
-/// 2.2 s); on the 7,662-polygon `surfaces-8k` 3.14% against 3.19%. Reused
+/// Reusing records this close saves gather time at little error. Reused
 /// farther, the records' plane misses how the reflected light bends near
 /// a box's foot and between the elements' centres.
 pub const REUSE: f32 = 0.25;

@@ -8,11 +8,8 @@
 //! (a geometric tail, Aitken's extrapolation), which is added to the
 //! sources the image gathers from.
 //!
-//! Measured on the Cornell box, whose solve stops with most of its light
-//! unshot and leaves the passes to carry it: the lit bias against the
-//! path tracer was -0.36% with 8 passes, -0.54% without the ambient term,
-//! and -0.19% with the solve converged (18 s instead of 1.8 s). The tail
-//! took it to -0.31%; the rest was the links' opening (`LINK_OPENING`).
+//! It matters where the solve stops with most of its light unshot and
+//! leaves the passes to carry it.
 
 use glam::Vec3;
 

@@ -540,12 +540,7 @@ const RESOLVED_PIXELS: f64 = 1.5;
 ///
 /// Below that, a receiver covers a pixel or less and its form factor is
 /// mostly aliasing; the region correction's visibility (hemicube over
-/// exact, clamped to 1) then turns the noise into a bias. Measured on the
-/// Cornell box at 10,816 elements (extent / h = 72: a 64 hemicube gives
-/// 0.9 pixels, 128 gives 1.8), per element against a fixed 512: fixed 256
-/// 3.3% rel. RMS (bias -0.08%), fixed 128 6.9% (+0.10%), fixed 64 14.9%
-/// (-0.79%); per shot down to 64, 3.8% (-0.27%); down to 128, 3.5%
-/// (-0.03%).
+/// exact, clamped to 1) then turns the noise into a bias.
 fn resolving_resolution(scene: &Scene, mesh: &Mesh) -> u32 {
     let area: f64 = mesh.elements.iter().map(|e| e.area as f64).sum();
     let edge = (area / mesh.elements.len().max(1) as f64).sqrt();

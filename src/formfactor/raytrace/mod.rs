@@ -49,30 +49,11 @@
 //!
 //! # Choice of the BVH
 //!
-//! Measured on the same workload (release, one thread, a shared 2-core
-//! machine, so +-10%): 1e6 occlusion segments between random points on
-//! random patches, both end patches skipped, ends offset by epsilon; every
-//! candidate agreed with brute force on 20000 of them.
-//!
-//! | candidate                         | Cornell (16 patches, 32 tris) | 5000 random triangles |
-//! |-----------------------------------|-------------------------------|-----------------------|
-//! | hand-written binned-SAH BVH2      | 4.3 Mrays/s, build 0.03 ms    | 0.57 Mrays/s, 3.0 ms  |
-//! | `obvhs` 0.4 CWBVH8, `fast_build`  | 5.4 Mrays/s, build 0.09 ms    | 0.66 Mrays/s, 3.3 ms  |
-//! | `obvhs` 0.4 CWBVH8, `medium_build`| 6.6 Mrays/s, build 0.03 ms    | 0.76 Mrays/s, 6.5 ms  |
-//! | `bvh` 0.13 (nalgebra), own segment query | 6.1 Mrays/s, build 0.02 ms | 0.68 Mrays/s, 2.3 ms |
-//!
-//! A second run under less load gave 7.9 / 1.14 Mrays/s for `obvhs`
-//! (8.7 / 1.08 through [`Occluders::visible`]) and 6.3 / 0.89 for `bvh`.
-//! One Cornell shot (2704 elements, 3112 vertices, 2 threads) then takes
-//! 1.3 ms at 16 rays and 4.7 ms at 64.
-//!
-//! Chosen: `obvhs` with `medium_build`: the fastest traversal on both
-//! (1.3-1.5x the hand-written baseline, which lives in git history), a
-//! build that is negligible next to one shot, light dependencies (glam
-//! 0.34 beside the project's 0.30, `half`, `rdst`, `log`). It is edition
-//! 2024 (as is glam 0.34), so `rust-version` went from 1.80 to 1.85.
-//! `bvh` 0.13 was not taken: it needs Rust 1.90 and pulls in nalgebra with
-//! serde, for no gain in speed.
+//! `obvhs` with `medium_build`: it traversed fastest of the candidates (a
+//! hand-written binned-SAH BVH2, now in git history, and `bvh` 0.13), its
+//! build is negligible next to one shot, and its dependencies are light; it
+//! is edition 2024, so `rust-version` is 1.85. `bvh` 0.13 was not taken: it
+//! needs Rust 1.90 and pulls in nalgebra with serde, for no gain in speed.
 
 use std::f32::consts::PI;
 

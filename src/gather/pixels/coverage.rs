@@ -65,9 +65,8 @@ impl CameraRayTracer for FinalGather<'_> {
 }
 
 /// A pixel casting at least this many rays at once walks the CPU's
-/// hierarchy once for all of them ([`RayBundle`]). Measured (camera rays,
-/// medians of three): 16 against 32, the Cornell box at 800x800 (16 a
-/// pixel) 0.88 -> 0.77 s, `rfield` at 256x256 the same; 4 no better.
+/// hierarchy once for all of them ([`RayBundle`]). Smaller bundles share
+/// too little of the walk to gain over tracing the rays alone.
 const BUNDLE: usize = 16;
 
 /// ... unless it holds more triangles than this (a finely tessellated

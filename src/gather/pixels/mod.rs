@@ -141,9 +141,8 @@ fn most_samples(width: u32, height: u32, budget: u64) -> u32 {
 /// Side in pixels of the blocks the reflected light is gathered once per
 /// patch in: about 2^14 blocks an image (1 below 256x256, 2 at 256x256,
 /// 6 at 800x800), so that its cost is about flat in the image's size.
-/// Measured on `rfield` at 256x256 against Mitsuba 3: blocks of 1, 2 and 3
-/// pixels give 4.93%, 4.94% and 5.03% lit rel. RMSE, the reflected gather
-/// taking 15.2, 8.3 and 5.9 s; on the Cornell box 1.73%, 1.76%, 1.83%.
+/// The reflected light varies slowly, so a block of a few pixels costs
+/// little error for much less gather time.
 pub fn reflected_block(width: u32, height: u32) -> u32 {
     let pixels = u64::from(width) * u64::from(height);
     ((pixels as f64 / f64::from(1 << 14)).sqrt().floor() as u32).max(1)
@@ -160,11 +159,7 @@ pub const SILHOUETTE_COVERAGE: u32 = 4;
 /// coverage samples, so no camera rays of their own), each tracing as
 /// many times fewer rays (at least 16): where in each patch's part of the
 /// pixel its direct light is sampled matters more than how many rays each
-/// sample traces. Measured on `rfield` at 256x256 (a quarter of its
-/// pixels; bench/NOTES.md, "Silhouettes"): 4x the coverage and 4x the
-/// direct samples took the lit error from 2.77% to 2.37%, 16x the direct
-/// samples to 2.17%, 16x both to 2.19% (each with every two patches a
-/// silhouette; with only two surfaces or materials, 2.21%).
+/// sample traces.
 pub const SILHOUETTE_DIRECT: u32 = 16;
 
 /// A silhouette pixel's direct samples on each of its patches start with
@@ -174,12 +169,7 @@ pub const SILHOUETTE_DIRECT: u32 = 16;
 /// same patch's in a pixel beside by over [`EDGE_CONTRAST`] (an edge
 /// passes by that the first ones missed). In full light or full shadow a
 /// sample's rays all agree and its value is exact, so more samples add
-/// nothing. Measured on `rfield` at 256x256 (whole commands, medians of
-/// three interleaved, 2 cores): all of them 1.880% lit error in 4.67 s;
-/// 4 first 1.892% in 4.12 s (1.97% without the pixels beside); 8 first
-/// 1.887% in 4.20 s; 16 first 1.876% in 4.57 s (one run). The Cornell
-/// box, CornellBox-Sphere and `surfaces-8k` unchanged (1.19%, 0.914%,
-/// 1.255%).
+/// nothing.
 pub const SILHOUETTE_FIRST: u32 = 4;
 
 /// See [`SILHOUETTE_FIRST`]: within a pixel the unoccluded light varies by
@@ -204,10 +194,8 @@ pub const EDGE_CONTRAST: f32 = 0.5;
 
 /// Samples of a pixel across a shadow's edge: 16 (stratified, 4x4) where
 /// a pixel has several direct samples (up to 256x256), none beyond, where
-/// a pixel is small beside the shadows it shows. Measured there: on
-/// `rfield` at 768x768 (averaged 3x3 to the reference's pixels) 16 more
-/// gave 2.91% in 29.9 s, 4 more 2.92% in 23.4 s, none 2.99% in 21.5 s;
-/// on the Cornell box at 800x800, 4 more took 4.1 s against 3.6 s.
+/// a pixel is small beside the shadows it shows, so that more samples
+/// there cost time for almost no less error.
 pub fn edge_samples(width: u32, height: u32) -> u32 {
     match direct_samples(width, height) {
         1 => 0,
