@@ -80,7 +80,8 @@ fn mirrors() -> Vec<Mirror> {
 /// A pipeline layout as Rust declares it, and the shaders that use it.
 struct Pass {
     name: &'static str,
-    shaders: Vec<(&'static str, &'static [u8])>,
+    /// The embedded modules (`shaders::*`) its pipelines are built from.
+    shaders: Vec<&'static [u8]>,
     /// What Rust hands `Bindings::new`: (binding, descriptor type).
     layout: Vec<(u32, vk::DescriptorType)>,
     /// Which GLSL resource (block or variable name) Rust binds where.
@@ -88,16 +89,10 @@ struct Pass {
     push_bytes: u32,
 }
 
-/// `shader!(FIRST_HIT_COMP)`: an embedded module and its name.
-macro_rules! shader {
-    ($name:ident) => {
-        (stringify!($name), shaders::$name)
-    };
-}
-
 fn passes() -> Vec<Pass> {
     use rays::gather::{B_GATHERED, B_POINTS, B_SOURCES};
     use rays::{B_BVH_NODES, B_BVH_TRIANGLES, B_CHUNK_INPUT, B_CHUNK_OUTPUT};
+    use shaders::*;
     use shooting::*;
     let chunked = || rays::ray_pass_layout([B_CHUNK_INPUT, B_CHUNK_OUTPUT]);
     let bvh = [("BvhNodes", B_BVH_NODES), ("BvhTriangles", B_BVH_TRIANGLES)];
@@ -105,12 +100,12 @@ fn passes() -> Vec<Pass> {
         Pass {
             name: "shooting",
             shaders: vec![
-                shader!(HEMICUBE_VERT),
-                shader!(HEMICUBE_FRAG),
-                shader!(FF_REDUCE_COMP),
-                shader!(FF_NODE_COMP),
-                shader!(SHOT_LIGHT_COMP),
-                shader!(SHOOT_COMP),
+                HEMICUBE_VERT,
+                HEMICUBE_FRAG,
+                FF_REDUCE_COMP,
+                FF_NODE_COMP,
+                SHOT_LIGHT_COMP,
+                SHOOT_COMP,
             ],
             layout: LAYOUT.to_vec(),
             resources: vec![
@@ -130,7 +125,7 @@ fn passes() -> Vec<Pass> {
         },
         Pass {
             name: "first-hit rays",
-            shaders: vec![shader!(FIRST_HIT_COMP)],
+            shaders: vec![FIRST_HIT_COMP],
             layout: chunked(),
             resources: [
                 &bvh[..],
@@ -141,7 +136,7 @@ fn passes() -> Vec<Pass> {
         },
         Pass {
             name: "ray occlusion",
-            shaders: vec![shader!(OCCLUSION_COMP)],
+            shaders: vec![OCCLUSION_COMP],
             layout: chunked(),
             resources: [
                 &bvh[..],
@@ -152,7 +147,7 @@ fn passes() -> Vec<Pass> {
         },
         Pass {
             name: "source gather",
-            shaders: vec![shader!(GATHER_SOURCES_COMP)],
+            shaders: vec![GATHER_SOURCES_COMP],
             layout: rays::ray_pass_layout([B_POINTS, B_SOURCES, B_GATHERED]),
             resources: [
                 &bvh[..],
@@ -167,14 +162,14 @@ fn passes() -> Vec<Pass> {
         },
         Pass {
             name: "visibility draws",
-            shaders: vec![shader!(DM_ITEM_VERT), shader!(DM_ITEM_FRAG)],
+            shaders: vec![DM_ITEM_VERT, DM_ITEM_FRAG],
             layout: vec![],
             resources: vec![],
             push_bytes: visibility::DRAW_PUSH_BYTES,
         },
         Pass {
             name: "visibility flags",
-            shaders: vec![shader!(DM_FLAGS_COMP)],
+            shaders: vec![DM_FLAGS_COMP],
             layout: visibility::FLAG_LAYOUT.to_vec(),
             resources: vec![
                 ("item_buffer", visibility::B_ITEM_BUFFER),
@@ -185,10 +180,10 @@ fn passes() -> Vec<Pass> {
         Pass {
             name: "final render",
             shaders: vec![
-                shader!(RENDER_VERT),
-                shader!(RENDER_FRAG),
-                shader!(RENDER_PLAIN_VERT),
-                shader!(RENDER_PLAIN_FRAG),
+                RENDER_VERT,
+                RENDER_FRAG,
+                RENDER_PLAIN_VERT,
+                RENDER_PLAIN_FRAG,
             ],
             layout: raster::LAYOUT.to_vec(),
             resources: vec![
@@ -227,8 +222,17 @@ fn shared_constants() -> Vec<(&'static str, &'static str, f64)> {
     ]
 }
 
+/// The file name of an embedded module (`shaders::ALL`).
+fn file_name(bytes: &[u8]) -> &'static str {
+    shaders::ALL
+        .iter()
+        .find(|(_, b)| *b == bytes)
+        .map_or("?", |(name, _)| name)
+}
+
 /// An embedded module, parsed.
-fn module(name: &str, bytes: &[u8]) -> Module {
+fn module(bytes: &[u8]) -> Module {
+    let name = file_name(bytes);
     let module = Module::parse(bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
     assert!(
         !module.names.is_empty(),
@@ -241,8 +245,13 @@ fn module(name: &str, bytes: &[u8]) -> Module {
 fn all_modules() -> Vec<(&'static str, Module)> {
     shaders::ALL
         .iter()
-        .map(|&(name, bytes)| (name, module(name, bytes)))
+        .map(|&(name, bytes)| (name, module(bytes)))
         .collect()
+}
+
+/// An optional value as a message shows it.
+fn shown<T: std::fmt::Debug>(value: Option<T>) -> String {
+    value.map_or("none".to_string(), |v| format!("{v:?}"))
 }
 
 fn is_padding(member: &str) -> bool {
@@ -267,14 +276,16 @@ fn struct_mismatches(shader: &str, module: &Module, mirror: &Mirror) -> Vec<Stri
             let offset = module.member_offset(id, index).map(|o| o as usize);
             if offset != Some(field.offset) {
                 out.push(format!(
-                    "{what}: offset {offset:?} in SPIR-V, {} in {rust}",
+                    "{what}: offset {} in SPIR-V, {} in {rust}",
+                    shown(offset),
                     field.offset
                 ));
             }
             let size = module.member_size(id, index).map(|s| s as usize);
             if size != Some(field.size) {
                 out.push(format!(
-                    "{what}: {size:?} bytes in SPIR-V, {} in {rust}",
+                    "{what}: {} bytes in SPIR-V, {} in {rust}",
+                    shown(size),
                     field.size
                 ));
             }
@@ -288,11 +299,14 @@ fn struct_mismatches(shader: &str, module: &Module, mirror: &Mirror) -> Vec<Stri
             }
         }
         let strides = module.strides_of_arrays_of(id);
-        for stride in &strides {
-            if *stride != Some(mirror.size as u32) {
+        for &stride in &strides {
+            if stride != Some(mirror.size as u32) {
                 out.push(format!(
-                    "{shader}: arrays of {} step {stride:?} bytes, size_of::<{}>() is {}",
-                    mirror.glsl, mirror.rust, mirror.size
+                    "{shader}: arrays of {} step {} bytes, size_of::<{}>() is {}",
+                    mirror.glsl,
+                    shown(stride),
+                    mirror.rust,
+                    mirror.size
                 ));
             }
         }
@@ -300,8 +314,11 @@ fn struct_mismatches(shader: &str, module: &Module, mirror: &Mirror) -> Vec<Stri
         let extent = module.size(id, None).map(|s| s as usize);
         if strides.is_empty() && extent != Some(mirror.size) {
             out.push(format!(
-                "{shader}: {} spans {extent:?} bytes, size_of::<{}>() is {}",
-                mirror.glsl, mirror.rust, mirror.size
+                "{shader}: {} spans {} bytes, size_of::<{}>() is {}",
+                mirror.glsl,
+                shown(extent),
+                mirror.rust,
+                mirror.size
             ));
         }
     }
@@ -334,15 +351,16 @@ fn descriptor_types(
 /// resource's (set, binding) and descriptor type, and the push constants.
 fn binding_mismatches(pass: &Pass) -> Vec<String> {
     let mut out = Vec::new();
-    for &(shader, bytes) in &pass.shaders {
-        let module = module(shader, bytes);
+    for &bytes in &pass.shaders {
+        let module = module(bytes);
+        let what = format!("{} pass, {}", pass.name, file_name(bytes));
         for v in &module.variables {
-            let what = format!("{} pass, {shader}", pass.name);
             if v.storage == StorageClass::PushConstant {
-                let bytes = module.size(v.ty, None).unwrap_or(u32::MAX);
-                if bytes > pass.push_bytes {
+                let size = module.size(v.ty, None);
+                if size.is_none_or(|size| size > pass.push_bytes) {
                     out.push(format!(
-                        "{what}: push constants of {bytes} bytes, Rust declares {}",
+                        "{what}: push constants of {} bytes, Rust declares {}",
+                        shown(size),
                         pass.push_bytes
                     ));
                 }
@@ -362,22 +380,25 @@ fn binding_mismatches(pass: &Pass) -> Vec<String> {
             let set = module.descriptor_set(v.id);
             let Some(&(_, rust_binding)) = pass.resources.iter().find(|(n, _)| *n == name) else {
                 out.push(format!(
-                    "{what}: {name} (binding {binding:?}) is not one Rust binds"
+                    "{what}: {name} (binding {}) is not one Rust binds",
+                    shown(binding)
                 ));
                 continue;
             };
             if set != Some(0) || binding != Some(rust_binding) {
                 out.push(format!(
-                    "{what}: {name} at (set {set:?}, binding {binding:?}), Rust binds it at \
-                     (set 0, binding {rust_binding})"
+                    "{what}: {name} at (set {}, binding {}), Rust binds it at \
+                     (set 0, binding {rust_binding})",
+                    shown(set),
+                    shown(binding)
                 ));
             }
             match pass.layout.iter().find(|(b, _)| *b == rust_binding) {
                 Some((_, ty)) if allowed.contains(ty) => {}
                 declared => out.push(format!(
                     "{what}: {name} needs one of {allowed:?}, Rust's layout declares \
-                     binding {rust_binding} as {:?}",
-                    declared.map(|d| d.1)
+                     binding {rust_binding} as {}",
+                    shown(declared.map(|d| d.1))
                 )),
             }
         }
@@ -469,10 +490,10 @@ fn constant_mismatch(file: &str, name: &str, rust: f64) -> Option<String> {
     }
 }
 
-fn assert_none(what: &str, mismatches: Vec<String>) {
+fn assert_none(heading: &str, mismatches: Vec<String>) {
     assert!(
         mismatches.is_empty(),
-        "{what}: Rust and the shaders disagree:\n  {}",
+        "{heading}:\n  {}",
         mismatches.join("\n  ")
     );
 }
@@ -494,7 +515,7 @@ fn shared_structs_match_their_rust_mirrors() {
             ));
         }
     }
-    assert_none("struct layouts", mismatches);
+    assert_none("struct layouts differ between Rust and GLSL", mismatches);
 }
 
 #[test]
@@ -515,10 +536,8 @@ fn every_struct_the_shaders_lay_out_has_a_rust_mirror() {
                     module.types.get(&members[0]),
                     Some(Type::RuntimeArray { .. })
                 );
-            let exempt = match block {
-                Some(v) => v.storage == StorageClass::PushConstant || wraps_one_array,
-                None => false,
-            };
+            let exempt =
+                block.is_some_and(|v| v.storage == StorageClass::PushConstant || wraps_one_array);
             let laid_out = module.member_offset(id, 0).is_some();
             if laid_out && !exempt && !mirrored.contains(&name) {
                 unmirrored.push(format!("{shader}: {name}"));
@@ -532,18 +551,13 @@ fn every_struct_the_shaders_lay_out_has_a_rust_mirror() {
 
 #[test]
 fn descriptor_bindings_and_push_constants_match_each_pass() {
-    assert_none(
-        "bindings",
-        passes().iter().flat_map(binding_mismatches).collect(),
-    );
+    let mismatches = passes().iter().flat_map(binding_mismatches).collect();
+    assert_none("bindings differ from what Rust declares", mismatches);
 }
 
 #[test]
 fn every_shader_belongs_to_a_checked_pass() {
-    let checked: Vec<&[u8]> = passes()
-        .iter()
-        .flat_map(|p| p.shaders.iter().map(|s| s.1))
-        .collect();
+    let checked: Vec<&[u8]> = passes().iter().flat_map(|p| p.shaders.clone()).collect();
     let unchecked: Vec<String> = shaders::ALL
         .iter()
         .filter(|(_, bytes)| !checked.contains(bytes))
@@ -555,27 +569,15 @@ fn every_shader_belongs_to_a_checked_pass() {
 #[test]
 fn vertex_inputs_match_the_attributes_rust_declares() {
     type Attribute = (u32, vk::Format, u32);
-    let vertex_shaders: [(&str, &[u8], &[Attribute]); 4] = [
-        ("render.vert", shaders::RENDER_VERT, &raster::LIT_ATTRIBUTES),
-        (
-            "render_plain.vert",
-            shaders::RENDER_PLAIN_VERT,
-            &raster::PLAIN_ATTRIBUTES,
-        ),
-        (
-            "hemicube.vert",
-            shaders::HEMICUBE_VERT,
-            &item::ITEM_ATTRIBUTES,
-        ),
-        (
-            "dm_item.vert",
-            shaders::DM_ITEM_VERT,
-            &item::ITEM_ATTRIBUTES,
-        ),
+    let vertex_shaders: [(&[u8], &[Attribute]); 4] = [
+        (shaders::RENDER_VERT, &raster::LIT_ATTRIBUTES),
+        (shaders::RENDER_PLAIN_VERT, &raster::PLAIN_ATTRIBUTES),
+        (shaders::HEMICUBE_VERT, &item::ITEM_ATTRIBUTES),
+        (shaders::DM_ITEM_VERT, &item::ITEM_ATTRIBUTES),
     ];
     let mut mismatches = Vec::new();
-    for (shader, bytes, attributes) in vertex_shaders {
-        let module = module(shader, bytes);
+    for (bytes, attributes) in vertex_shaders {
+        let (shader, module) = (file_name(bytes), module(bytes));
         let inputs: Vec<(u32, Option<vk::Format>, &str)> = module
             .variables
             .iter()
@@ -586,21 +588,22 @@ fn vertex_inputs_match_the_attributes_rust_declares() {
             })
             .collect();
         for &(location, format, name) in &inputs {
-            match attributes.iter().find(|a| a.0 == location) {
-                Some(a) if Some(a.1) == format => {}
-                a => mismatches.push(format!(
-                    "{shader}: {name} (location {location}) takes {format:?}, Rust feeds {:?}",
-                    a.map(|a| a.1)
-                )),
+            let fed = attributes.iter().find(|a| a.0 == location).map(|a| a.1);
+            if fed.is_none() || fed != format {
+                mismatches.push(format!(
+                    "{shader}: {name} (location {location}) takes {}, Rust feeds {}",
+                    shown(format),
+                    shown(fed)
+                ));
             }
         }
-        for a in attributes.iter() {
+        for a in attributes {
             if !inputs.iter().any(|i| i.0 == a.0) {
                 mismatches.push(format!("{shader}: no input at Rust's location {}", a.0));
             }
         }
     }
-    assert_none("vertex inputs", mismatches);
+    assert_none("vertex inputs differ from Rust's attributes", mismatches);
 }
 
 #[test]
@@ -608,28 +611,29 @@ fn workgroup_sizes_match_the_dispatches() {
     let rays = rays::GROUP_SIZE as u32;
     let shooting = shooting::GROUP_SIZE;
     let flags = visibility::FLAG_GROUP;
-    let expected: [(&str, &[u8], [u32; 3]); 7] = [
-        ("first_hit.comp", shaders::FIRST_HIT_COMP, [rays, 1, 1]),
-        ("occlusion.comp", shaders::OCCLUSION_COMP, [rays, 1, 1]),
-        (
-            "gather_sources.comp",
-            shaders::GATHER_SOURCES_COMP,
-            [rays, 1, 1],
-        ),
-        ("ff_reduce.comp", shaders::FF_REDUCE_COMP, [shooting, 1, 1]),
-        ("ff_node.comp", shaders::FF_NODE_COMP, [shooting, 1, 1]),
-        ("shoot.comp", shaders::SHOOT_COMP, [shooting, 1, 1]),
-        ("dm_flags.comp", shaders::DM_FLAGS_COMP, [flags, flags, 1]),
+    let expected: [(&[u8], [u32; 3]); 7] = [
+        (shaders::FIRST_HIT_COMP, [rays, 1, 1]),
+        (shaders::OCCLUSION_COMP, [rays, 1, 1]),
+        (shaders::GATHER_SOURCES_COMP, [rays, 1, 1]),
+        (shaders::FF_REDUCE_COMP, [shooting, 1, 1]),
+        (shaders::FF_NODE_COMP, [shooting, 1, 1]),
+        (shaders::SHOOT_COMP, [shooting, 1, 1]),
+        (shaders::DM_FLAGS_COMP, [flags, flags, 1]),
     ];
     let mismatches = expected
         .iter()
-        .filter_map(|&(shader, bytes, rust)| {
-            let glsl = module(shader, bytes).local_size;
-            (glsl != Some(rust))
-                .then(|| format!("{shader}: local size {glsl:?}, Rust dispatches {rust:?}"))
+        .filter_map(|&(bytes, rust)| {
+            let glsl = module(bytes).local_size;
+            (glsl != Some(rust)).then(|| {
+                let shader = file_name(bytes);
+                format!(
+                    "{shader}: local size {}, Rust dispatches {rust:?}",
+                    shown(glsl)
+                )
+            })
         })
         .collect();
-    assert_none("workgroup sizes", mismatches);
+    assert_none("workgroup sizes differ from Rust's", mismatches);
 }
 
 #[test]
@@ -638,7 +642,7 @@ fn shared_constants_match_rust() {
         .into_iter()
         .filter_map(|(file, name, rust)| constant_mismatch(file, name, rust))
         .collect();
-    assert_none("constants", mismatches);
+    assert_none("constants differ between Rust and GLSL", mismatches);
 }
 
 #[test]
@@ -654,74 +658,62 @@ fn array_lengths_match_rust_constants() {
     for (shader, module) in all_modules() {
         for (strukt, member, rust) in expected {
             for id in module.laid_out_structs(strukt) {
-                let members = module.members(id);
-                let glsl = members
-                    .iter()
+                let glsl = module
+                    .members(id)
+                    .into_iter()
                     .find(|(name, _)| name == member)
-                    .and_then(|&(_, ty)| module.array_length(ty));
+                    .and_then(|(_, ty)| module.array_length(ty));
                 if glsl != Some(rust as u32) {
                     mismatches.push(format!(
-                        "{shader}: {strukt}.{member} holds {glsl:?}, Rust {rust}"
+                        "{shader}: {strukt}.{member} holds {}, Rust {rust}",
+                        shown(glsl)
                     ));
                 }
             }
         }
     }
-    assert_none("array lengths", mismatches);
+    assert_none("array lengths differ from Rust's constants", mismatches);
 }
 
-/// The checks must be able to fail: each is run on a table with one
-/// planted error, and must name it.
+/// The checks must be able to fail: each runs on a table with one planted
+/// error, and must name it.
 #[test]
 fn the_checks_report_a_planted_mismatch_by_name() {
-    let gather = module("GATHER_SOURCES_COMP", shaders::GATHER_SOURCES_COMP);
+    let gather = module(shaders::GATHER_SOURCES_COMP);
     let mut point = mirrors()
         .into_iter()
         .find(|m| m.rust == "GatherPoint")
         .expect("GatherPoint is mirrored");
-    assert_eq!(
-        struct_mismatches("gather", &gather, &point),
-        Vec::<String>::new()
-    );
-    let stream = point
-        .fields
-        .iter_mut()
-        .find(|f| f.rust == "stream")
-        .unwrap();
-    stream.offset -= 4;
+    assert_eq!(struct_mismatches("gather", &gather, &point), [""; 0]);
+    let stream = point.fields.iter_mut().find(|f| f.rust == "stream");
+    stream.expect("GatherPoint has a stream").offset -= 4;
     let found = struct_mismatches("gather", &gather, &point);
     assert!(
         found
             .iter()
-            .any(|m| m.contains("GatherPoint.stream: offset")),
+            .any(|m| m.contains("GatherPoint.stream: offset 28")),
         "a wrong offset went unreported: {found:?}"
     );
 
     let mut pass = passes()
         .into_iter()
         .find(|p| p.name == "source gather")
-        .unwrap();
-    assert_eq!(binding_mismatches(&pass), Vec::<String>::new());
-    let sources = pass
-        .resources
-        .iter_mut()
-        .find(|r| r.0 == "Sources")
-        .unwrap();
-    sources.1 += 1;
+        .expect("the source gather is a pass");
+    assert_eq!(binding_mismatches(&pass), [""; 0]);
+    let sources = pass.resources.iter_mut().find(|r| r.0 == "Sources");
+    sources.expect("the gather binds Sources").1 += 1;
     let found = binding_mismatches(&pass);
     assert!(
         found
             .iter()
-            .any(|m| m.contains("Sources at (set Some(0), binding Some(3))")),
+            .any(|m| m.contains("Sources at (set 0, binding 3)")),
         "a wrong binding went unreported: {found:?}"
     );
 
     let first_rays = rays::FIRST_RAYS as f64;
-    assert_eq!(
-        constant_mismatch("gather_sources.comp", "FIRST_RAYS", first_rays),
-        None
-    );
-    let found = constant_mismatch("gather_sources.comp", "FIRST_RAYS", first_rays + 1.0);
+    let file = "gather_sources.comp";
+    assert_eq!(constant_mismatch(file, "FIRST_RAYS", first_rays), None);
+    let found = constant_mismatch(file, "FIRST_RAYS", first_rays + 1.0);
     assert!(
         found
             .as_deref()
