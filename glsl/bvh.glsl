@@ -1,10 +1,11 @@
 // Any-hit segment and first-hit ray queries (one traversal, bvh_trace) against a binary BVH in
 // storage buffers
-// (mirrors src/gpu/rays/mod.rs::{BvhNode, BvhTriangle}, built by
-// src/formfactor/raytrace/flat_bvh.rs). The rules are those of
-// Occluders::visible: every triangle blocks from both sides, Moller-Trumbore
-// with inclusive edges, t strictly inside (tmin, 1 - tmin) with
-// tmin = eps / length, triangles of the two skipped patches ignored.
+// (mirrors src/geom/bvh_layout.rs::{BvhNode, BvhTriangle}, built by
+// src/formfactor/raytrace/flat_bvh.rs; checked by src/gpu/contracts).
+// The rules are those of Occluders::visible: every triangle blocks from
+// both sides, Moller-Trumbore with inclusive edges, t strictly inside
+// (tmin, 1 - tmin) with tmin = eps / length, triangles of the two skipped
+// patches ignored.
 // The includer declares nothing at bindings 0 and 1.
 
 struct BvhNode {

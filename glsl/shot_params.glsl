@@ -1,6 +1,7 @@
 // Per-shot parameters, written by the CPU before each submission, one
 // slot per shooter of a batch (a dynamic uniform buffer offset picks it)
-// (std140; mirrors `ShotParams` in src/gpu/shooting/params.rs).
+// (std140; mirrors `ShotParams` in src/gpu/shooting/params.rs; the layout,
+// binding and constants are checked by src/gpu/contracts).
 layout(set = 0, binding = 0, std140) uniform ShotParams {
     // World -> clip for the five hemicube faces: top, then the four sides.
     mat4 face_view_proj[5];

@@ -47,7 +47,7 @@ use self::point_gather::Linking;
 use self::reflected_cache::HarmonicDistance;
 use self::reflected_cache::{centre_records, ReflectedCache};
 pub use self::settings::{PointLight, VertexGather, LINK_ERROR, PIXEL_EMITTER_RAYS, REUSE};
-use self::settings::{CLOSE_FF, CORNER_INSET, MIN_REFLECTOR_RAYS, NEAR_RADIUS};
+use self::settings::{CLOSE_FF, MIN_REFLECTOR_RAYS, NEAR_RADIUS};
 use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
 use self::tail::Passes;

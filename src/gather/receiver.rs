@@ -3,10 +3,12 @@
 
 use glam::{DVec3, Vec3};
 
-use super::{Source, VertexGather, CORNER_INSET, MIN_REFLECTOR_RAYS};
+use super::{Source, VertexGather, MIN_REFLECTOR_RAYS};
+// Shared with glsl/gather_sources.comp (checked by src/gpu/contracts).
 use crate::formfactor::analytic::{clip_to_front, point_to_polygon};
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::{grid, Pcg32};
+use crate::gpu::rays::{CORNER_INSET, FIRST_RAYS};
 
 /// The point a vertex is gathered at.
 pub(super) struct Receiver {
@@ -56,7 +58,6 @@ impl Receiver {
         // stratified rays alone missed it there, so a step of tens of
         // percent showed along umbra lines (Cornell, beside the short
         // block).
-        const FIRST_RAYS: usize = 16;
         if src.emits && rays > 2 * FIRST_RAYS {
             let (seen, all) = self.visible_weight(FIRST_RAYS, src, occluders, rng);
             if all <= 0.0 {

@@ -124,10 +124,6 @@ pub const REUSE: f32 = 0.25;
 /// `vkrad cornell` 25% slower.
 pub const PIXEL_EMITTER_RAYS: usize = 512;
 
-/// How far inside a light its corner rays aim (a share of the way to its
-/// centre): off the light's own edge, which may touch the ceiling around it.
-pub(super) const CORNER_INSET: f64 = 1e-3;
-
 /// Fewest rays to a near reflecting node. One ray's visible share is 0 or 1,
 /// and the share it estimates is of the node's area, not of its form
 /// factor (the kernel weights cancel): biased beside blockers. Two cut the

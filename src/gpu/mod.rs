@@ -4,6 +4,8 @@
 pub mod capture;
 pub mod commands;
 pub mod context;
+#[cfg(test)]
+mod contracts;
 pub mod instrument;
 pub mod item;
 pub mod memory;

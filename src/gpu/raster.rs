@@ -1,5 +1,6 @@
 //! The final image: the lit mesh rasterized with per-vertex radiance.
 
+use std::mem::offset_of;
 use std::sync::Arc;
 
 use ash::vk;
@@ -67,6 +68,49 @@ pub struct Textures {
     pub texels: Vec<u32>,
 }
 
+/// The vertex attributes of [`LitVertex`] for `glsl/render.vert`:
+/// (location, format, offset).
+pub(crate) const LIT_ATTRIBUTES: [(u32, vk::Format, u32); 5] = [
+    (
+        0,
+        vk::Format::R32G32B32_SFLOAT,
+        offset_of!(LitVertex, position) as u32,
+    ),
+    (
+        1,
+        vk::Format::R32G32B32_SFLOAT,
+        offset_of!(LitVertex, radiance) as u32,
+    ),
+    (
+        2,
+        vk::Format::R32G32B32_SFLOAT,
+        offset_of!(LitVertex, reflected) as u32,
+    ),
+    (
+        3,
+        vk::Format::R32G32_SFLOAT,
+        offset_of!(LitVertex, uv) as u32,
+    ),
+    (
+        4,
+        vk::Format::R32_UINT,
+        offset_of!(LitVertex, texture) as u32,
+    ),
+];
+/// Those of `glsl/render_plain.vert`: position and radiance only.
+pub(crate) const PLAIN_ATTRIBUTES: [(u32, vk::Format, u32); 2] =
+    [LIT_ATTRIBUTES[0], LIT_ATTRIBUTES[1]];
+
+// The descriptor set of the final render (glsl/render.frag) and its push
+// constants (a view_proj matrix).
+pub(crate) const B_TEXTURE_INFOS: u32 = 0;
+pub(crate) const B_TEXELS: u32 = 1;
+pub(crate) const LAYOUT: [(u32, vk::DescriptorType); 2] = [
+    (B_TEXTURE_INFOS, vk::DescriptorType::STORAGE_BUFFER),
+    (B_TEXELS, vk::DescriptorType::STORAGE_BUFFER),
+];
+pub(crate) const PUSH_BYTES: u32 = 64;
+
 const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
@@ -119,34 +163,21 @@ pub fn render_lit_mesh(
         },
         vk::BufferUsageFlags::STORAGE_BUFFER,
     )?;
-    let bindings = Bindings::new(
-        device,
-        "final render bindings",
-        &[
-            (0, vk::DescriptorType::STORAGE_BUFFER),
-            (1, vk::DescriptorType::STORAGE_BUFFER),
-        ],
-        64,
-    )?;
-    bindings.bind_buffer(0, vk::DescriptorType::STORAGE_BUFFER, infos.raw());
-    bindings.bind_buffer(1, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
+    let bindings = Bindings::new(device, "final render bindings", &LAYOUT, PUSH_BYTES)?;
+    bindings.bind_buffer(
+        B_TEXTURE_INFOS,
+        vk::DescriptorType::STORAGE_BUFFER,
+        infos.raw(),
+    );
+    bindings.bind_buffer(B_TEXELS, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
     // A scene without textures is drawn by shaders without their inputs:
     // on lavapipe the textured pair made the Cornell box's final render
     // 1.66 s against 0.95 s.
     let textured = !textures.infos.is_empty();
     let attributes: &[(u32, vk::Format, u32)] = if textured {
-        &[
-            (0, vk::Format::R32G32B32_SFLOAT, 0),
-            (1, vk::Format::R32G32B32_SFLOAT, 12),
-            (2, vk::Format::R32G32B32_SFLOAT, 24),
-            (3, vk::Format::R32G32_SFLOAT, 36),
-            (4, vk::Format::R32_UINT, 44),
-        ]
+        &LIT_ATTRIBUTES
     } else {
-        &[
-            (0, vk::Format::R32G32B32_SFLOAT, 0),
-            (1, vk::Format::R32G32B32_SFLOAT, 12),
-        ]
+        &PLAIN_ATTRIBUTES
     };
     let desc = |topology| GraphicsDesc {
         vertex: if textured {

@@ -18,7 +18,7 @@ use super::commands::{
     Commands,
 };
 use super::context::Device;
-use super::item::{ItemVertex, ITEM_FORMAT, NO_ITEM};
+use super::item::{ItemVertex, ITEM_ATTRIBUTES, ITEM_FORMAT, NO_ITEM};
 use super::memory::{upload, Buffer, Image};
 use super::pipeline::{Bindings, GraphicsDesc, Pipeline, StencilMode};
 use super::profiler::{GpuProfiler, StageTimes};
@@ -37,6 +37,21 @@ pub struct VisibilityTile {
     pub first_index: u32,
     pub index_count: u32,
 }
+
+/// The draws' push constants: a tile's view_proj matrix
+/// (glsl/dm_item.vert); they bind no descriptors.
+pub(crate) const DRAW_PUSH_BYTES: u32 = 64;
+
+// The flag pass's descriptor set and push constants (glsl/dm_flags.comp).
+pub(crate) const B_ITEM_BUFFER: u32 = 0;
+pub(crate) const B_FLAGS: u32 = 1;
+pub(crate) const FLAG_LAYOUT: [(u32, vk::DescriptorType); 2] = [
+    (B_ITEM_BUFFER, vk::DescriptorType::STORAGE_IMAGE),
+    (B_FLAGS, vk::DescriptorType::STORAGE_BUFFER),
+];
+pub(crate) const FLAG_PUSH_BYTES: u32 = 16;
+/// The flag pass's workgroups: FLAG_GROUP x FLAG_GROUP pixels.
+pub(crate) const FLAG_GROUP: u32 = 16;
 
 /// Tiles per atlas side at most; a batch is up to 32 x 32 tiles.
 const MAX_TILES_PER_SIDE: u32 = 32;
@@ -153,26 +168,21 @@ impl VisibilityPass {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
-        let draw_bindings = Bindings::new(device, "visibility draw bindings", &[], 64)?;
+        let draw_bindings =
+            Bindings::new(device, "visibility draw bindings", &[], DRAW_PUSH_BYTES)?;
         let flag_bindings = Bindings::new(
             device,
             "visibility flag bindings",
-            &[
-                (0, vk::DescriptorType::STORAGE_IMAGE),
-                (1, vk::DescriptorType::STORAGE_BUFFER),
-            ],
-            16,
+            &FLAG_LAYOUT,
+            FLAG_PUSH_BYTES,
         )?;
-        flag_bindings.bind_storage_image(0, item.view());
-        flag_bindings.bind_buffer(1, vk::DescriptorType::STORAGE_BUFFER, flags.raw());
+        flag_bindings.bind_storage_image(B_ITEM_BUFFER, item.view());
+        flag_bindings.bind_buffer(B_FLAGS, vk::DescriptorType::STORAGE_BUFFER, flags.raw());
         let desc = |stencil, compare| GraphicsDesc {
             vertex: shaders::DM_ITEM_VERT,
             fragment: shaders::DM_ITEM_FRAG,
             vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
-            attributes: &[
-                (0, vk::Format::R32G32B32_SFLOAT, 0),
-                (1, vk::Format::R32_UINT, 12),
-            ],
+            attributes: &ITEM_ATTRIBUTES,
             color_format: ITEM_FORMAT,
             depth_format,
             depth_compare: compare,
@@ -401,8 +411,8 @@ impl VisibilityPass {
             let rows = batch.len() as u32 / self.tiles_per_side + 1;
             raw.cmd_dispatch(
                 cmd,
-                side.div_ceil(16),
-                (rows * self.tile_res).min(side).div_ceil(16),
+                side.div_ceil(FLAG_GROUP),
+                (rows * self.tile_res).min(side).div_ceil(FLAG_GROUP),
                 1,
             );
         }

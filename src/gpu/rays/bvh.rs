@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{BvhNode, BvhTriangle};
+use super::{BvhNode, BvhTriangle, B_BVH_NODES, B_BVH_TRIANGLES};
 use crate::error::{Error, Result};
 use crate::gpu::context::Device;
 use crate::gpu::memory::{upload, Buffer};
@@ -13,7 +13,7 @@ use crate::gpu::pipeline::Bindings;
 
 /// The shader's traversal stack (`BVH_STACK` in `glsl/bvh.glsl`): the
 /// hierarchy's depth must stay below it.
-const STACK: usize = 64;
+pub(crate) const BVH_STACK: usize = 64;
 
 pub struct GpuBvh {
     nodes: Buffer,
@@ -61,11 +61,11 @@ impl GpuBvh {
         self.eps
     }
 
-    /// Points bindings 0 and 1 of `bindings` at the nodes and triangles.
+    /// Points the BVH's bindings of `bindings` at the nodes and triangles.
     pub(super) fn bind(&self, bindings: &Bindings) {
         let ty = vk::DescriptorType::STORAGE_BUFFER;
-        bindings.bind_buffer(0, ty, self.nodes.raw());
-        bindings.bind_buffer(1, ty, self.triangles.raw());
+        bindings.bind_buffer(B_BVH_NODES, ty, self.nodes.raw());
+        bindings.bind_buffer(B_BVH_TRIANGLES, ty, self.triangles.raw());
     }
 }
 
@@ -78,8 +78,8 @@ fn check(nodes: &[BvhNode], triangles: usize) -> Result<()> {
     let mut visited = 0usize;
     while let Some((i, depth)) = stack.pop() {
         visited += 1;
-        if visited > nodes.len() || depth >= STACK {
-            return bad(format!("node {i}: a cycle or a depth over {STACK}"));
+        if visited > nodes.len() || depth >= BVH_STACK {
+            return bad(format!("node {i}: a cycle or a depth over {BVH_STACK}"));
         }
         let n = &nodes[i];
         if n.count > 0 {

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use bytemuck::{Pod, Zeroable};
 
-use super::{chunk_job, ComputeJob, GpuBvh};
+use super::{chunk_job, ComputeJob, GpuBvh, GROUP_SIZE};
 use crate::error::Result;
 use crate::gpu::context::Device;
 use crate::gpu::memory::Buffer;
@@ -16,7 +16,8 @@ use crate::gpu::shaders;
 pub(super) const STAGE: &str = "first-hit rays";
 /// Rays per submission by default: about 0.1 s on lavapipe (2 cores).
 pub const DEFAULT_CHUNK: usize = 1 << 17;
-const GROUP: usize = 64;
+/// Push constants: the ray count and the BVH's node count.
+pub(crate) const PUSH_BYTES: u32 = 8;
 
 /// A ray `a + t d`, `t > tmin`, that ignores patch `skip` (`u32::MAX`:
 /// none).
@@ -66,12 +67,19 @@ impl FirstHitPass {
     /// At most `chunk` rays per submission (rounded up to a multiple of
     /// 64); the buffers hold one chunk.
     pub fn with_chunk(device: &Arc<Device>, bvh: Arc<GpuBvh>, chunk: usize) -> Result<Self> {
-        let chunk = chunk.max(1).div_ceil(GROUP) * GROUP;
+        let chunk = chunk.max(1).div_ceil(GROUP_SIZE) * GROUP_SIZE;
         let bytes = (
             (chunk * std::mem::size_of::<Ray>()) as u64,
             (chunk * std::mem::size_of::<Hit>()) as u64,
         );
-        let (rays, hits, job) = chunk_job(device, &bvh, STAGE, shaders::FIRST_HIT_COMP, bytes, 8)?;
+        let (rays, hits, job) = chunk_job(
+            device,
+            &bvh,
+            STAGE,
+            shaders::FIRST_HIT_COMP,
+            bytes,
+            PUSH_BYTES,
+        )?;
         Ok(FirstHitPass {
             bvh,
             rays,
@@ -90,7 +98,7 @@ impl FirstHitPass {
             self.rays.write(0, chunk)?;
             let n = chunk.len() as u32;
             let push: [u32; 2] = [n, self.bvh.node_count()];
-            let groups = chunk.len().div_ceil(GROUP) as u32;
+            let groups = chunk.len().div_ceil(GROUP_SIZE) as u32;
             self.job.run(
                 STAGE,
                 bytemuck::cast_slice(&push),

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::{ComputeJob, GatherPoint, GatherSource, GpuBvh};
+use super::{ComputeJob, GatherPoint, GatherSource, GpuBvh, GROUP_SIZE};
 use crate::error::{Error, Result};
 use crate::gpu::context::Device;
 use crate::gpu::memory::Buffer;
@@ -15,12 +15,25 @@ use crate::gpu::shaders;
 pub(super) const STAGE: &str = "source gather";
 /// Corners a source may have (`MAX_CORNERS` in the shader).
 pub const MAX_SOURCE_CORNERS: usize = 8;
+/// A source that may take the early out is taken as wholly seen or hidden
+/// when its first `FIRST_RAYS` rays and its corners agree, over
+/// `2 * FIRST_RAYS` rays (the shader's and the CPU gather's rule).
+pub const FIRST_RAYS: usize = 16;
+/// Its corners are tested this share of the way in towards its centre.
+pub const CORNER_INSET: f64 = 1e-3;
 /// Rays (an upper bound per point) per submission by default: about a
 /// quarter of a second on lavapipe (2 cores) on the Cornell box.
 pub const DEFAULT_RAYS_PER_SUBMISSION: u64 = 1 << 19;
 /// Points per submission at most (the buffers hold this many).
 const MAX_POINTS: usize = 1 << 16;
-const GROUP: usize = 64;
+/// Push constants: point and source counts, the BVH's node count and
+/// epsilon, the seed; padded to 32 bytes.
+pub(crate) const PUSH_BYTES: u32 = 32;
+
+// The pass's own bindings (after the BVH's).
+pub(crate) const B_POINTS: u32 = 2;
+pub(crate) const B_SOURCES: u32 = 3;
+pub(crate) const B_GATHERED: u32 = 4;
 
 pub struct SourceGatherPass {
     device: Arc<Device>,
@@ -58,8 +71,12 @@ impl SourceGatherPass {
             STAGE,
             shaders::GATHER_SOURCES_COMP,
             &bvh,
-            &[points.raw(), sources.raw(), gathered.raw()],
-            32,
+            &[
+                (B_POINTS, points.raw()),
+                (B_SOURCES, sources.raw()),
+                (B_GATHERED, gathered.raw()),
+            ],
+            PUSH_BYTES,
         )?;
         Ok(SourceGatherPass {
             device: device.clone(),
@@ -104,7 +121,10 @@ impl SourceGatherPass {
         self.upload_sources(sources)?;
         let per_point: u64 = sources
             .iter()
-            .map(|s| u64::from(s.rays) + u64::from(s.early_out.min(1)) * 24)
+            .map(|s| {
+                let early_out = FIRST_RAYS + MAX_SOURCE_CORNERS;
+                u64::from(s.rays) + u64::from(s.early_out.min(1)) * early_out as u64
+            })
             .sum();
         let chunk = ((self.rays_per_submission / per_point.max(1)) as usize).clamp(1, MAX_POINTS);
         let mut out = Vec::with_capacity(points.len());
@@ -121,7 +141,7 @@ impl SourceGatherPass {
                 0,
                 0,
             ];
-            let groups = part.len().div_ceil(GROUP) as u32;
+            let groups = part.len().div_ceil(GROUP_SIZE) as u32;
             let sources_count = sources.len();
             self.job.run(
                 STAGE,
@@ -144,7 +164,7 @@ impl SourceGatherPass {
         if self.sources.size() < bytes {
             self.sources = sources_buffer(&self.device, sources.len().next_power_of_two())?;
             self.job.bindings.bind_buffer(
-                3,
+                B_SOURCES,
                 vk::DescriptorType::STORAGE_BUFFER,
                 self.sources.raw(),
             );

@@ -30,17 +30,42 @@ use super::pipeline::{Bindings, Pipeline};
 use super::profiler::{GpuProfiler, StageTimes};
 use crate::error::Result;
 
-mod bvh;
-mod first_hit;
-mod gather;
-mod occlusion;
+pub(crate) mod bvh;
+pub(crate) mod first_hit;
+pub(crate) mod gather;
+pub(crate) mod occlusion;
 
 pub use bvh::GpuBvh;
 pub use first_hit::{FirstHitPass, Hit, Ray};
-pub use gather::{SourceGatherPass, MAX_SOURCE_CORNERS};
+pub use gather::{SourceGatherPass, CORNER_INSET, FIRST_RAYS, MAX_SOURCE_CORNERS};
 pub use occlusion::OcclusionPass;
 
 pub use crate::geom::bvh_layout::{BvhNode, BvhTriangle};
+
+/// Invocations per workgroup of every ray pass (`local_size_x` of its
+/// shader).
+pub(crate) const GROUP_SIZE: usize = 64;
+
+// Descriptor bindings of the ray passes: the BVH's (glsl/bvh.glsl), then
+// each pass's own storage buffers.
+pub(crate) const B_BVH_NODES: u32 = 0;
+pub(crate) const B_BVH_TRIANGLES: u32 = 1;
+/// A chunked pass's input (`Rays`, `Segments`) and output (`Hits`,
+/// `Visible`).
+pub(crate) const B_CHUNK_INPUT: u32 = 2;
+pub(crate) const B_CHUNK_OUTPUT: u32 = 3;
+
+/// The descriptor set of a ray pass whose own storage buffers sit at
+/// bindings `own`: the BVH's two, then those.
+pub(crate) fn ray_pass_layout(
+    own: impl IntoIterator<Item = u32>,
+) -> Vec<(u32, vk::DescriptorType)> {
+    [B_BVH_NODES, B_BVH_TRIANGLES]
+        .into_iter()
+        .chain(own)
+        .map(|b| (b, vk::DescriptorType::STORAGE_BUFFER))
+        .collect()
+}
 
 /// A segment from `a` to `b`; triangles of patches `skip` are ignored
 /// (`u32::MAX` for none).
@@ -86,7 +111,7 @@ pub struct GatherPoint {
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Pod, Zeroable)]
 pub struct GatherSource {
-    pub corners: [[f32; 4]; 8],
+    pub corners: [[f32; 4]; MAX_SOURCE_CORNERS],
     pub normal: [f32; 3],
     pub patch: u32,
     pub radiosity: [f32; 3],
@@ -107,7 +132,7 @@ impl GatherSource {
         rays: u32,
         early_out: bool,
     ) -> Self {
-        let mut c = [[0.0; 4]; 8];
+        let mut c = [[0.0; 4]; MAX_SOURCE_CORNERS];
         for (dst, src) in c.iter_mut().zip(corners) {
             *dst = [src[0], src[1], src[2], 1.0];
         }
@@ -135,22 +160,20 @@ struct ComputeJob {
 }
 
 impl ComputeJob {
-    /// `buffers`: the pass's storage buffers at bindings 2, 3, ...
+    /// `buffers`: the pass's own storage buffers, (binding, buffer).
     fn new(
         device: &Arc<Device>,
         name: &str,
         spirv: &[u8],
         bvh: &GpuBvh,
-        buffers: &[vk::Buffer],
+        buffers: &[(u32, vk::Buffer)],
         push_bytes: u32,
     ) -> Result<Self> {
-        let layout: Vec<_> = (0..2 + buffers.len() as u32)
-            .map(|b| (b, vk::DescriptorType::STORAGE_BUFFER))
-            .collect();
+        let layout = ray_pass_layout(buffers.iter().map(|&(binding, _)| binding));
         let bindings = Bindings::new(device, &format!("{name} bindings"), &layout, push_bytes)?;
         bvh.bind(&bindings);
-        for (k, &b) in buffers.iter().enumerate() {
-            bindings.bind_buffer(2 + k as u32, vk::DescriptorType::STORAGE_BUFFER, b);
+        for &(binding, buffer) in buffers {
+            bindings.bind_buffer(binding, vk::DescriptorType::STORAGE_BUFFER, buffer);
         }
         let pipeline = Pipeline::compute(device, name, bindings.layout, spirv)?;
         Ok(ComputeJob {
@@ -238,7 +261,8 @@ impl ComputeJob {
 
 /// A chunked pass's host-written input buffer (`input_bytes`), its
 /// host-read output buffer (`output_bytes`), and its compute job over
-/// `bvh` reading the one and writing the other (bindings 2 and 3).
+/// `bvh` reading the one and writing the other ([`B_CHUNK_INPUT`] and
+/// [`B_CHUNK_OUTPUT`]).
 fn chunk_job(
     device: &Arc<Device>,
     bvh: &GpuBvh,
@@ -266,7 +290,7 @@ fn chunk_job(
         stage,
         spirv,
         bvh,
-        &[input.raw(), output.raw()],
+        &[(B_CHUNK_INPUT, input.raw()), (B_CHUNK_OUTPUT, output.raw())],
         push_bytes,
     )?;
     Ok((input, output, job))

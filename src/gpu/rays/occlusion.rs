@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use super::{chunk_job, ComputeJob, GpuBvh, Segment};
+use super::{chunk_job, ComputeJob, GpuBvh, Segment, GROUP_SIZE};
 use crate::error::Result;
 use crate::gpu::context::Device;
 use crate::gpu::memory::Buffer;
@@ -12,7 +12,8 @@ use crate::gpu::shaders;
 pub(super) const STAGE: &str = "ray occlusion";
 /// Segments per submission by default: about 0.1 s on lavapipe (2 cores).
 pub const DEFAULT_CHUNK: usize = 1 << 18;
-const GROUP: usize = 64;
+/// Push constants: the segment count, the BVH's node count and epsilon.
+pub(crate) const PUSH_BYTES: u32 = 16;
 
 pub struct OcclusionPass {
     bvh: Arc<GpuBvh>,
@@ -34,13 +35,19 @@ impl OcclusionPass {
     /// At most `chunk` segments per submission (rounded up to a multiple
     /// of 64); the buffers hold one chunk.
     pub fn with_chunk(device: &Arc<Device>, bvh: Arc<GpuBvh>, chunk: usize) -> Result<Self> {
-        let chunk = chunk.max(1).div_ceil(GROUP) * GROUP;
+        let chunk = chunk.max(1).div_ceil(GROUP_SIZE) * GROUP_SIZE;
         let bytes = (
             (chunk * std::mem::size_of::<Segment>()) as u64,
             (chunk / 32 * 4) as u64,
         );
-        let (segments, bits, job) =
-            chunk_job(device, &bvh, STAGE, shaders::OCCLUSION_COMP, bytes, 16)?;
+        let (segments, bits, job) = chunk_job(
+            device,
+            &bvh,
+            STAGE,
+            shaders::OCCLUSION_COMP,
+            bytes,
+            PUSH_BYTES,
+        )?;
         Ok(OcclusionPass {
             bvh,
             segments,
@@ -58,7 +65,7 @@ impl OcclusionPass {
             self.segments.write(0, chunk)?;
             let n = chunk.len() as u32;
             let push: [u32; 4] = [n, self.bvh.node_count(), self.bvh.epsilon().to_bits(), 0];
-            let groups = chunk.len().div_ceil(GROUP) as u32;
+            let groups = chunk.len().div_ceil(GROUP_SIZE) as u32;
             self.job.run(
                 STAGE,
                 bytemuck::cast_slice(&push),

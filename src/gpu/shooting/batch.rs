@@ -24,7 +24,7 @@ use ash::vk;
 use serde_json::json;
 
 use super::frame::FRAMES;
-use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL};
+use super::{FaceDraws, Shooter, ShootingEngine, BATCH_WAIT_LABEL, GROUP_SIZE};
 use crate::error::{Error, Result};
 use crate::gpu::capture::CaptureTarget;
 use crate::gpu::commands::{barriers, buffer_barrier};
@@ -225,7 +225,7 @@ impl ShootingEngine {
                         self.region_pipeline.raw,
                     );
                     self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
-                    raw.cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
+                    raw.cmd_dispatch(cmd, self.element_count.div_ceil(GROUP_SIZE), 1, 1);
                 }
                 if let Some(p) = profiler.as_mut() {
                     p.end_pass(cmd);

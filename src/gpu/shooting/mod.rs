@@ -45,7 +45,7 @@ pub use batch::{BatchIds, BatchResult, MAX_BATCH};
 use cull::FaceCull;
 use frame::BatchFrame;
 pub use frame::FRAMES;
-pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_OUTLINE};
+pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_CHILDREN, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
 /// Fixed-point scale of accumulated form factors: F = sum / 2^31
@@ -96,20 +96,39 @@ pub struct HemicubeLayout {
 
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 /// Pixels per reduction invocation (RUN in glsl/ff_reduce.comp).
-const REDUCE_RUN: u32 = 16;
+pub(crate) const REDUCE_RUN: u32 = 16;
+/// Invocations per workgroup of the reduction, region and shooting
+/// passes (`local_size_x` of their shaders).
+pub(crate) const GROUP_SIZE: u32 = 64;
 
 // Descriptor bindings (glsl/shot_params.glsl, ff_reduce.comp, shoot.comp).
-const B_PARAMS: u32 = 0;
-const B_ITEM: u32 = 1;
-const B_WEIGHTS: u32 = 2;
-const B_FF: u32 = 3;
-const B_ELEMENTS: u32 = 4;
-const B_RADIOSITY: u32 = 5;
-const B_UNSHOT: u32 = 6;
-const B_GEOMETRY: u32 = 7;
-const B_RANKS: u32 = 8;
-const B_SHOT_LIGHT: u32 = 9;
-const B_ORDER: u32 = 10;
+pub(crate) const B_PARAMS: u32 = 0;
+pub(crate) const B_ITEM: u32 = 1;
+pub(crate) const B_WEIGHTS: u32 = 2;
+pub(crate) const B_FF: u32 = 3;
+pub(crate) const B_ELEMENTS: u32 = 4;
+pub(crate) const B_RADIOSITY: u32 = 5;
+pub(crate) const B_UNSHOT: u32 = 6;
+pub(crate) const B_GEOMETRY: u32 = 7;
+pub(crate) const B_RANKS: u32 = 8;
+pub(crate) const B_SHOT_LIGHT: u32 = 9;
+pub(crate) const B_ORDER: u32 = 10;
+/// The descriptor set every pass of the engine shares.
+pub(crate) const LAYOUT: [(u32, vk::DescriptorType); 11] = [
+    (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC),
+    (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
+    (B_WEIGHTS, vk::DescriptorType::STORAGE_BUFFER),
+    (B_FF, vk::DescriptorType::STORAGE_BUFFER),
+    (B_ELEMENTS, vk::DescriptorType::STORAGE_BUFFER),
+    (B_RADIOSITY, vk::DescriptorType::STORAGE_BUFFER),
+    (B_UNSHOT, vk::DescriptorType::STORAGE_BUFFER),
+    (B_GEOMETRY, vk::DescriptorType::STORAGE_BUFFER),
+    (B_RANKS, vk::DescriptorType::STORAGE_BUFFER),
+    (B_SHOT_LIGHT, vk::DescriptorType::STORAGE_BUFFER),
+    (B_ORDER, vk::DescriptorType::STORAGE_BUFFER),
+];
+/// Push constants: the hemicube face being drawn (glsl/hemicube.vert).
+pub(crate) const PUSH_BYTES: u32 = 4;
 
 #[derive(Clone, Copy)]
 enum Submission {
@@ -520,7 +539,7 @@ impl ShootingEngine {
             self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
             // One invocation per run of REDUCE_RUN pixels (glsl/ff_reduce.comp).
             let runs = w.div_ceil(REDUCE_RUN) * h;
-            raw.cmd_dispatch(cmd, runs.div_ceil(64), 1, 1);
+            raw.cmd_dispatch(cmd, runs.div_ceil(GROUP_SIZE), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
             p.end_pass(cmd);
@@ -616,7 +635,7 @@ impl ShootingEngine {
                 .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.shoot_pipeline.raw);
             self.bind_set(cmd, vk::PipelineBindPoint::COMPUTE, slot);
             d.raw
-                .cmd_dispatch(cmd, self.element_count.div_ceil(64), 1, 1);
+                .cmd_dispatch(cmd, self.element_count.div_ceil(GROUP_SIZE), 1, 1);
         }
         if let Some(p) = profiler.as_mut() {
             p.end_pass(cmd);

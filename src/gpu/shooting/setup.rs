@@ -4,34 +4,26 @@ use std::sync::Arc;
 
 use ash::vk;
 
-use super::{B_ITEM, B_PARAMS, DEPTH_FORMAT};
+use super::{B_ITEM, B_PARAMS, DEPTH_FORMAT, LAYOUT, PUSH_BYTES};
 use crate::error::Result;
 use crate::gpu::context::Device;
-use crate::gpu::item::{ItemVertex, ITEM_FORMAT};
+use crate::gpu::item::{ItemVertex, ITEM_ATTRIBUTES, ITEM_FORMAT};
 use crate::gpu::memory::{Buffer, Image};
 use crate::gpu::pipeline::{Bindings, GraphicsDesc, Pipeline};
 use crate::gpu::shaders;
 
-/// The descriptor set every pass of the engine shares: the item buffer,
-/// the parameters (binding 0, a dynamic uniform buffer: one slot of
-/// `params_range` bytes per shooter of a batch, chosen by the dynamic
-/// offset at bind time) and `(binding, buffer)` for the rest.
+/// The descriptor set every pass of the engine shares ([`LAYOUT`]): the
+/// item buffer, the parameters (binding 0, a dynamic uniform buffer: one
+/// slot of `params_range` bytes per shooter of a batch, chosen by the
+/// dynamic offset at bind time) and `(binding, buffer)` for the rest.
 pub(super) fn bind_all(
     device: &Arc<Device>,
     item: &Image,
     params: (&Buffer, u64),
     buffers: &[(u32, &Buffer)],
 ) -> Result<Bindings> {
-    let mut layout: Vec<(u32, vk::DescriptorType)> = vec![
-        (B_ITEM, vk::DescriptorType::STORAGE_IMAGE),
-        (B_PARAMS, vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC),
-    ];
-    layout.extend(
-        buffers
-            .iter()
-            .map(|&(b, _)| (b, vk::DescriptorType::STORAGE_BUFFER)),
-    );
-    let bindings = Bindings::new(device, "shooting bindings", &layout, 4)?;
+    debug_assert_eq!(buffers.len() + 2, LAYOUT.len(), "a binding left unbound");
+    let bindings = Bindings::new(device, "shooting bindings", &LAYOUT, PUSH_BYTES)?;
     bindings.bind_storage_image(B_ITEM, item.view());
     for &(b, buffer) in buffers {
         bindings.bind_buffer(b, vk::DescriptorType::STORAGE_BUFFER, buffer.raw());
@@ -64,10 +56,7 @@ pub(super) fn pipelines(device: &Arc<Device>, bindings: &Bindings) -> Result<[Pi
             vertex: shaders::HEMICUBE_VERT,
             fragment: shaders::HEMICUBE_FRAG,
             vertex_stride: std::mem::size_of::<ItemVertex>() as u32,
-            attributes: &[
-                (0, vk::Format::R32G32B32_SFLOAT, 0),
-                (1, vk::Format::R32_UINT, 12),
-            ],
+            attributes: &ITEM_ATTRIBUTES,
             color_format: ITEM_FORMAT,
             depth_format: DEPTH_FORMAT,
             depth_compare: vk::CompareOp::GREATER,
