@@ -71,10 +71,7 @@ pub static TUNING: &[TuningKey] = &[
         name: "dm_res",
         help: "tile side in pixels of the discontinuity mesher's GPU visibility pass",
         get: |j| j.dm_res.to_string(),
-        set: |j, v| {
-            j.dm_res = parse_in(v, 8, 4096)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.dm_res, parse_in(v, 8, 4096)),
     },
     TuningKey {
         name: "hemicube_res",
@@ -93,10 +90,7 @@ pub static TUNING: &[TuningKey] = &[
         name: "adapt_hemicube",
         help: "each shot takes the hemicube resolution its power needs, down to a quarter (false: every shot at hemicube_res)",
         get: |j| j.solve.adapt_hemicube.to_string(),
-        set: |j, v| {
-            j.solve.adapt_hemicube = parse_bool(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.solve.adapt_hemicube, parse_bool(v)),
     },
     TuningKey {
         name: "rays",
@@ -139,10 +133,7 @@ pub static TUNING: &[TuningKey] = &[
         name: "max_shots",
         help: "stop after this many shots at the latest",
         get: |j| j.solve.max_shots.to_string(),
-        set: |j, v| {
-            j.solve.max_shots = parse_in(v, 1, usize::MAX)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.solve.max_shots, parse_in(v, 1, usize::MAX)),
     },
     TuningKey {
         name: "shooting",
@@ -164,10 +155,7 @@ pub static TUNING: &[TuningKey] = &[
         name: "max_share",
         help: "hierarchical shooting: a region's shot carries at most this share of all the unshot power",
         get: |j| hierarchy(j).max_share.to_string(),
-        set: |j, v| {
-            hierarchy_mut(j)?.max_share = parse_fraction(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut hierarchy_mut(j)?.max_share, parse_fraction(v)),
     },
     TuningKey {
         name: "uniformity",
@@ -198,19 +186,13 @@ pub static TUNING: &[TuningKey] = &[
         name: "ambient",
         help: "show the ambient term (Cohen et al. 1988) for light still unshot",
         get: |j| j.ambient.to_string(),
-        set: |j, v| {
-            j.ambient = parse_bool(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.ambient, parse_bool(v)),
     },
     TuningKey {
         name: "check_mesh",
         help: "check every mesh (orientation, planes, area, T-junctions) before using it",
         get: |j| j.check_mesh.to_string(),
-        set: |j, v| {
-            j.check_mesh = parse_bool(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.check_mesh, parse_bool(v)),
     },
     TuningKey {
         name: "final_gather",
@@ -228,10 +210,7 @@ pub static TUNING: &[TuningKey] = &[
         name: "gather_passes",
         help: "Jacobi passes of the final gather at the element centres; past four, the later bounces are added as a geometric tail",
         get: |j| gather(j).source_passes.to_string(),
-        set: |j, v| {
-            gather_mut(j)?.source_passes = parse_in(v, 0, 1000)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut gather_mut(j)?.source_passes, parse_in(v, 0, 1000)),
     },
     TuningKey {
         name: "reflected_reuse",
@@ -250,28 +229,19 @@ pub static TUNING: &[TuningKey] = &[
         name: "hemisphere_rays",
         help: "rays a gathered point sends over its hemisphere for the reflected light, in a scene of many small patches",
         get: |j| gather(j).hemisphere_rays.to_string(),
-        set: |j, v| {
-            gather_mut(j)?.hemisphere_rays = parse_in(v, 1, 1 << 16)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut gather_mut(j)?.hemisphere_rays, parse_in(v, 1, 1 << 16)),
     },
     TuningKey {
         name: "direct_light",
         help: "where the final gather traces the emitters' direct light: auto (the GPU unless the device is the CPU), cpu or gpu",
         get: |j| device_name(gather(j).direct_light).into(),
-        set: |j, v| {
-            gather_mut(j)?.direct_light = parse_device(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut gather_mut(j)?.direct_light, parse_device(v)),
     },
     TuningKey {
         name: "ray_device",
         help: "where the final gather's first-hit rays (camera and hemisphere rays) are traced: auto, cpu or gpu",
         get: |j| device_name(gather(j).ray_device).into(),
-        set: |j, v| {
-            gather_mut(j)?.ray_device = parse_device(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut gather_mut(j)?.ray_device, parse_device(v)),
     },
     TuningKey {
         name: "display_edge",
@@ -298,28 +268,19 @@ pub static TUNING: &[TuningKey] = &[
         name: "display_refinements",
         help: "passes that split display elements where the value gathered at their centroid is off the interpolated one",
         get: |j| j.display_refinements.to_string(),
-        set: |j, v| {
-            j.display_refinements = parse_in(v, 0, 64)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.display_refinements, parse_in(v, 0, 64)),
     },
     TuningKey {
         name: "adaptive",
         help: "a-posteriori passes (with mesh=discontinuity): split the solved elements whose centroid error is over `tolerance`, and solve again",
         get: |j| j.adaptive.to_string(),
-        set: |j, v| {
-            j.adaptive = parse_in(v, 0, 64)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.adaptive, parse_in(v, 0, 64)),
     },
     TuningKey {
         name: "tolerance",
         help: "with adaptive: split elements whose centroid error is over this share of the lit surfaces' mean radiosity",
         get: |j| j.tolerance.to_string(),
-        set: |j, v| {
-            j.tolerance = parse_positive(v)?;
-            Ok(())
-        },
+        set: |j, v| assign(&mut j.tolerance, parse_positive(v)),
     },
     TuningKey {
         name: "max_elements",
@@ -334,6 +295,12 @@ pub static TUNING: &[TuningKey] = &[
         },
     },
 ];
+
+/// Stores `value` in `field` when it parsed.
+fn assign<T>(field: &mut T, value: Result<T>) -> Result<()> {
+    *field = value?;
+    Ok(())
+}
 
 fn optional<T: ToString>(value: Option<T>) -> String {
     value.map_or("none".into(), |v| v.to_string())
