@@ -21,12 +21,10 @@ mod memory;
 mod pipeline;
 mod report;
 mod tuning;
-pub use memory::{
-    peak_resident_bytes, run_estimate, EstimatePart, GatherAt, RunEstimate, RunShape, StageLog,
-};
+pub use memory::{peak_resident_bytes, run_estimate, RunEstimate, StageLog};
 pub use pipeline::{mesh_settings, run_scene};
 pub use report::{write_report, GatherFacts, Report};
-pub use tuning::{tune, TuningKey, TUNING};
+pub use tuning::{tune, TUNING};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]

@@ -267,12 +267,6 @@ impl ViewJudgement {
     }
 }
 
-/// [`ViewJudgement`] of `camera` on `scene` (builds a BVH over the scene:
-/// for many cameras, [`frame_bounds`] builds it once).
-pub fn judge_view(scene: &Scene, camera: &Camera) -> ViewJudgement {
-    Sight::new(scene).judge(camera)
-}
-
 /// The scene's patches, fan-triangulated, in a BVH for the rays that judge
 /// candidate views.
 struct Sight {

@@ -340,6 +340,7 @@ impl StageLog {
     }
 
     /// The peak resident set over the whole run so far.
+    #[cfg(any(test, feature = "internals"))]
     pub fn peak_bytes(&self) -> u64 {
         self.peak.iter().map(|&(_, b)| b).max().unwrap_or(0)
     }

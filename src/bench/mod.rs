@@ -152,6 +152,7 @@ impl Sweep {
 
     /// Whether the series' images show the final gather (else the solve's
     /// own vertex values).
+    #[cfg(any(test, feature = "internals"))]
     pub fn gathered(self) -> bool {
         self == Sweep::Default
     }
@@ -598,6 +599,7 @@ fn measure(
 
 /// `sqrt(mean((L - L_ref)^2)) / mean(L_ref)` over the colour channels of
 /// the pixels where either image is not black.
+#[cfg(any(test, feature = "internals"))]
 pub fn relative_rms_error(image: &HdrImage, reference: &HdrImage) -> Result<f64> {
     relative_rms_error_where(image, reference, None)
 }

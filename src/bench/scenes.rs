@@ -102,11 +102,13 @@ fn patch(name: &str, vertices: &[Vec3], material: usize) -> Patch {
 
 /// Above this many patches the occlusion test is skipped and the scene is
 /// treated as occluded (the hemicube reference is always valid).
+#[cfg(any(test, feature = "internals"))]
 const OCCLUSION_TEST_MAX_PATCHES: usize = 200;
 
 /// Sample points on a patch: its vertices, edge midpoints, centroid and
 /// points halfway between the centroid and each vertex, all pulled a little
 /// towards the centroid so that segments do not graze shared edges.
+#[cfg(any(test, feature = "internals"))]
 fn sample_points(p: &Patch) -> Vec<Vec3> {
     let c = p.centroid();
     let n = p.vertices.len();
@@ -122,6 +124,7 @@ fn sample_points(p: &Patch) -> Vec<Vec3> {
 }
 
 /// Whether the open segment a-b passes through the interior of convex patch p.
+#[cfg(any(test, feature = "internals"))]
 fn segment_hits(a: Vec3, b: Vec3, p: &Patch) -> bool {
     let n = p.normal;
     let d = n.dot(p.vertices[0]);
@@ -148,6 +151,7 @@ fn segment_hits(a: Vec3, b: Vec3, p: &Patch) -> bool {
 /// then exact and make the reference. Sampled, so an occluder smaller than
 /// the sample spacing can be missed; scenes with more than 200 patches are
 /// reported as occluded without testing.
+#[cfg(any(test, feature = "internals"))]
 pub fn is_unoccluded(scene: &Scene) -> bool {
     let patches = &scene.patches;
     if patches.len() > OCCLUSION_TEST_MAX_PATCHES {

@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 
-use vkrad::gpu::capture::CaptureTarget;
-use vkrad::gpu::DeviceOptions;
-use vkrad::solve::FormFactorMethod;
+use crate::gpu::capture::CaptureTarget;
+use crate::gpu::DeviceOptions;
+use crate::solve::FormFactorMethod;
 
 #[derive(Parser)]
 #[command(

@@ -20,15 +20,15 @@ use super::print::{
     print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
-use vkrad::app::{run_scene, tune, CameraOverride, Job, TUNING};
-use vkrad::gather::pixels::Shade;
-use vkrad::gpu::capture::CaptureTarget;
-use vkrad::gpu::{self, Device, DeviceOptions};
-use vkrad::mesh::build::{check_mesh, MeshBuilder};
-use vkrad::mesh::progress::MeshMeter;
-use vkrad::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
-use vkrad::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod};
-use vkrad::trace::{cat, span_since, Trace};
+use crate::app::{run_scene, tune, CameraOverride, Job, TUNING};
+use crate::gather::pixels::Shade;
+use crate::gpu::capture::CaptureTarget;
+use crate::gpu::{self, Device, DeviceOptions};
+use crate::mesh::build::{check_mesh, MeshBuilder};
+use crate::mesh::progress::MeshMeter;
+use crate::solve::patch_matrix::{checked_patch_form_factors, MatrixSettings};
+use crate::solve::{patch_form_factors, patch_form_factors_cpu, FormFactorMethod};
+use crate::trace::{cat, span_since, Trace};
 
 pub(crate) fn devices() -> Result<()> {
     let devices = gpu::list_devices()?;
@@ -63,7 +63,7 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
 /// timeline or capture asked for.
 pub(crate) fn profile(args: ProfileArgs) -> Result<()> {
     if let Some(path) = &args.trace {
-        vkrad::app::check_output_path(path, &["json"])?;
+        crate::app::check_output_path(path, &["json"])?;
     }
     // The trace's clock starts before anything it shows.
     let trace = args.trace.as_ref().map(|_| Arc::new(Trace::new()));
@@ -166,7 +166,7 @@ fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<
         .and_then(|p| p.trace.as_ref())
         .map(|(_, t)| Arc::clone(t));
     if let Some(report) = &args.report {
-        vkrad::app::check_output_path(report, &["json"])?;
+        crate::app::check_output_path(report, &["json"])?;
     }
     install_interrupt_handler();
     let mut progress = ProgressLine::new(
@@ -179,7 +179,7 @@ fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<
     // Know the cost before paying it: the mesh's size and memory, said
     // before meshing (and refused inside run_scene if it cannot fit).
     let t = Instant::now();
-    let scene = vkrad::scene::load_scene_arg(&job.scene)?;
+    let scene = crate::scene::load_scene_arg(&job.scene)?;
     let load_seconds = t.elapsed().as_secs_f64();
     span_since(
         trace.as_deref(),
@@ -188,7 +188,7 @@ fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<
         t,
         || serde_json::json!({ "patches": scene.patches.len() }),
     );
-    let estimate = vkrad::app::run_estimate(&job, &scene);
+    let estimate = crate::app::run_estimate(&job, &scene);
     if !args.quiet && (std::io::stderr().is_terminal() || estimate.mesh.elements >= 100_000) {
         eprintln!("  estimate  {}", describe_run_estimate(&estimate));
     }
@@ -220,7 +220,7 @@ fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<
     })?;
     progress.clear();
     if let Some(path) = &args.report {
-        vkrad::app::write_report(path, &report.to_json(&job))?;
+        crate::app::write_report(path, &report.to_json(&job))?;
     }
     let trace_path = profiling
         .as_ref()
@@ -256,12 +256,12 @@ fn run_job(args: &RenderArgs, job: Job, profiling: Option<Profiling>) -> Result<
 /// Writes the trace as compact JSON, atomically.
 fn write_trace(path: &Path, trace: &Trace) -> Result<()> {
     let value = trace.to_json();
-    vkrad::output::write_atomically(path, |w| {
-        serde_json::to_writer(&mut *w, &value).map_err(|e| vkrad::Error::Output {
+    crate::output::write_atomically(path, |w| {
+        serde_json::to_writer(&mut *w, &value).map_err(|e| crate::Error::Output {
             path: path.to_owned(),
             what: e.to_string(),
         })?;
-        std::io::Write::write_all(w, b"\n").map_err(|e| vkrad::Error::io(path, e))
+        std::io::Write::write_all(w, b"\n").map_err(|e| crate::Error::io(path, e))
     })?;
     Ok(())
 }
@@ -275,7 +275,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
             .unwrap_or_else(|| "simple".into());
         let device = Device::new(&args.gpu.options())?;
         let t = Instant::now();
-        let report = vkrad::bench::meshers::run_mesher_bench(
+        let report = crate::bench::meshers::run_mesher_bench(
             &device,
             &scene,
             args.quick,
@@ -286,7 +286,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
         print_mesher_bench(&report, &device.info.name, t.elapsed().as_secs_f64());
         return Ok(());
     }
-    let options = vkrad::bench::BenchOptions {
+    let options = crate::bench::BenchOptions {
         scenes: args.scenes,
         quick: args.quick,
         out_dir: args.out_dir,
@@ -294,14 +294,14 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
         max_elements: args.max_elements,
         refresh_reference: args.refresh_reference,
     };
-    let report = vkrad::bench::run_bench(&options, |line| eprintln!("  {line}"))?;
+    let report = crate::bench::run_bench(&options, |line| eprintln!("  {line}"))?;
     print_bench(&report);
     Ok(())
 }
 
 pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
-    vkrad::app::check_output_path(&args.output, &["obj", "ply"])?;
-    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    crate::app::check_output_path(&args.output, &["obj", "ply"])?;
+    let scene = crate::scene::load_scene_arg(&args.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
@@ -314,14 +314,14 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
         tune(&mut job, assignment)?;
     }
     let device = Device::new(&args.gpu.options())?;
-    let settings = vkrad::app::mesh_settings(&job, &scene);
+    let settings = crate::app::mesh_settings(&job, &scene);
     // A large discontinuity mesh takes minutes: a progress line, and
     // Ctrl-C stops it (nothing is written).
     install_interrupt_handler();
     let mut progress =
         ProgressLine::new(std::io::stderr().is_terminal(), StopTarget::Residual(1.0));
     let mut tick = |done: usize, total: usize| {
-        progress.update(&vkrad::app::Update::Stage {
+        progress.update(&crate::app::Update::Stage {
             stage: "mesh",
             done,
             total,
@@ -336,7 +336,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
     device.check_validation()?;
     // Geometry only: the colour and radiosity fields are zero.
     let zeros = vec![[0.0f32; 3]; mesh.vertices.len()];
-    vkrad::output::export_mesh(&args.output, &mesh, &zeros, 1.0)?;
+    crate::output::export_mesh(&args.output, &mesh, &zeros, 1.0)?;
     println!(
         "{}: {} patches -> {} elements, {} vertices; sanity check passed",
         scene.source.display(),
@@ -345,7 +345,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
         mesh.vertices.len()
     );
     print_mesh_report(&report);
-    if let Some(peak) = vkrad::app::peak_resident_bytes() {
+    if let Some(peak) = crate::app::peak_resident_bytes() {
         println!(
             "  memory    peak {:.0} MB resident",
             peak as f64 / f64::from(1 << 20)
@@ -356,7 +356,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
 }
 
 pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
-    let scene = vkrad::scene::load_scene_arg(&args.scene)?;
+    let scene = crate::scene::load_scene_arg(&args.scene)?;
     let mut job = Job::new(args.scene.clone());
     if let Some(ff) = args.ff {
         job.solve.method = ff.method();
@@ -366,8 +366,8 @@ pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     }
     let max_edge = args
         .max_edge
-        .unwrap_or_else(|| vkrad::mesh::default_max_edge(&scene));
-    let mesh = vkrad::mesh::uniform(&scene, max_edge);
+        .unwrap_or_else(|| crate::mesh::default_max_edge(&scene));
+    let mesh = crate::mesh::uniform(&scene, max_edge);
     let method = job.solve.method;
     let hemicube_res = job.solve.hemicube_res;
     let rays = match method {

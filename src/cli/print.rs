@@ -2,14 +2,14 @@
 //! summary, mesher statistics, bench results and form-factor tables.
 
 use super::args::FormFactorArgs;
-use vkrad::app::{Report, RunEstimate};
-use vkrad::bench::meshers::MesherReport;
-use vkrad::bench::BenchReport;
-use vkrad::mesh::build::MeshReport;
-use vkrad::mesh::Mesh;
-use vkrad::scene::Scene;
-use vkrad::solve::patch_matrix::{CheckedPatchFormFactors, EntrySource};
-use vkrad::solve::{FormFactorMethod, PatchFormFactors};
+use crate::app::{Report, RunEstimate};
+use crate::bench::meshers::MesherReport;
+use crate::bench::BenchReport;
+use crate::mesh::build::MeshReport;
+use crate::mesh::Mesh;
+use crate::scene::Scene;
+use crate::solve::patch_matrix::{CheckedPatchFormFactors, EntrySource};
+use crate::solve::{FormFactorMethod, PatchFormFactors};
 
 /// "about N elements solved, M shown; X MB of memory at the peak (the
 /// three largest parts)".
@@ -116,9 +116,9 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             let (w, h) = (r.image.width, r.image.height);
             println!(
                 "  display   gathered at the {w}x{h} pixels: the reflected light at {reflected} points (a patch's per {k}x{k} pixels), the direct light at {direct} ({d} a pixel, {e} more across shadow edges){passes} (--shade)",
-                k = vkrad::gather::pixels::reflected_block(w, h),
-                d = vkrad::gather::pixels::direct_samples(w, h),
-                e = vkrad::gather::pixels::edge_samples(w, h),
+                k = crate::gather::pixels::reflected_block(w, h),
+                d = crate::gather::pixels::direct_samples(w, h),
+                e = crate::gather::pixels::edge_samples(w, h),
             );
         }
         Some(d) => println!(

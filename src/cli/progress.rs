@@ -4,7 +4,7 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use vkrad::app::Update;
+use crate::app::Update;
 
 /// A 24-character bar filled to `share` (0..1).
 fn bar(share: f64) -> String {
@@ -118,7 +118,7 @@ impl ProgressLine {
         );
     }
 
-    fn shot(&mut self, p: &vkrad::solve::Progress) {
+    fn shot(&mut self, p: &crate::solve::Progress) {
         if !self.enabled || self.last_draw.elapsed() < Duration::from_millis(200) {
             return;
         }

@@ -15,8 +15,11 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::integrate::{mean_over_polygon, polygon_distance, Integral, Tolerance};
+use super::integrate::{mean_over_polygon, polygon_distance, Tolerance};
+#[cfg(any(test, feature = "internals"))]
+use super::integrate::Integral;
 use crate::geom::newell;
+#[cfg(any(test, feature = "internals"))]
 pub use crate::geom::polygon_area;
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -186,6 +189,7 @@ pub fn polygon_to_polygon(from: &[DVec3], to: &[DVec3], samples_per_edge: usize)
 /// its error estimate. Converges where [`polygon_to_polygon`]'s fixed rule
 /// does not: `to` close above `from` (near field) or sharing an edge with
 /// it. Only the front sides count.
+#[cfg(any(test, feature = "internals"))]
 pub fn polygon_to_polygon_adaptive(from: &[DVec3], to: &[DVec3], tol: &Tolerance) -> Integral {
     let n = newell(from);
     if n.length() <= 0.0 || !n.is_finite() {
@@ -264,7 +268,7 @@ pub fn bounding_ball(poly: &[DVec3]) -> (DVec3, f64) {
 /// the mean over its area: [`near_element_factor`]), and
 /// `F_ij = F_ji A_j / A_i`.
 ///
-/// The same quantity as `raytrace::RayTracedFormFactors::from_shooter`
+/// The same quantity as `raytrace::RayTracedFormFactors::shooter_row`
 /// without visibility and sampling noise; it equals the hemicube's
 /// element-centre value only in the limit of small elements. Elements of
 /// the shooter's patch and elements lying in the shooter's plane get 0, and
@@ -275,6 +279,7 @@ pub fn bounding_ball(poly: &[DVec3]) -> (DVec3, f64) {
 ///
 /// # Panics
 /// If `shooter` is not an element index.
+#[cfg(any(test, feature = "internals"))]
 pub fn element_form_factors_analytic(scene: &Scene, mesh: &Mesh, shooter: usize) -> Vec<f32> {
     element_and_vertex_form_factors_analytic(scene, mesh, shooter).0
 }

@@ -37,6 +37,7 @@ use self::exposure::{exposed_parts, EXPOSURE_GRID};
 pub use self::gpu_direct::DirectLight;
 use self::gpu_direct::GpuDirect;
 use self::gpu_rays::{upload_bvh, GpuRays};
+#[cfg(any(test, feature = "internals"))]
 pub use self::hemisphere_rays::HEMISPHERE_RAYS;
 use self::hemisphere_rays::{HemisphereRays, CENTRE_RAYS_SHARE, LANDING_EXPOSURE_GRID};
 use self::links::Links;
@@ -46,7 +47,7 @@ use self::lit_samples::Emitters;
 use self::point_gather::Linking;
 use self::reflected_cache::HarmonicDistance;
 use self::reflected_cache::{centre_records, ReflectedCache};
-pub use self::settings::{PointLight, VertexGather, LINK_ERROR, PIXEL_EMITTER_RAYS, REUSE};
+pub use self::settings::{PointLight, VertexGather, PIXEL_EMITTER_RAYS};
 use self::settings::{CLOSE_FF, MIN_REFLECTOR_RAYS, NEAR_RADIUS};
 use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
@@ -122,6 +123,7 @@ struct Gathered {
 ///
 /// # Panics
 /// If `radiosity.len() != solved.elements.len()`.
+#[cfg(any(test, feature = "internals"))]
 pub fn gather_vertices(
     scene: &Scene,
     solved: &Mesh,

@@ -25,6 +25,7 @@ pub fn newell(v: &[DVec3]) -> DVec3 {
 }
 
 /// The area of a planar polygon.
+#[cfg(any(test, feature = "internals"))]
 pub fn polygon_area(poly: &[DVec3]) -> f64 {
     0.5 * newell(poly).length()
 }

@@ -184,8 +184,6 @@ pub struct Image {
     raw: vk::Image,
     view: vk::ImageView,
     allocation: Option<Allocation>,
-    pub format: vk::Format,
-    pub extent: vk::Extent2D,
 }
 
 impl Image {
@@ -233,8 +231,6 @@ impl Image {
             raw,
             view: vk::ImageView::null(),
             allocation: None,
-            format,
-            extent,
         };
         let allocation = allocate(device, name, requirements, MemoryLocation::GpuOnly, false)?;
         // SAFETY: memory from the allocator, offset honours the requirements.

@@ -18,4 +18,4 @@ pub mod shooting;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
-pub use profiler::{PipelineStats, StageSummary, StageTimes};
+pub use profiler::StageTimes;

@@ -17,8 +17,9 @@ use std::time::{Duration, Instant};
 use ash::vk;
 use serde_json::{json, Value};
 
-use super::commands::Commands;
-use super::context::Device;
+
+#[cfg(any(test, feature = "internals"))]
+use super::commands::Commands;use super::context::Device;
 use super::instrument::{begin_label, end_label, Counters};
 use crate::error::{Error, Result};
 use crate::trace::{cat, Trace, GPU_TID};
@@ -517,6 +518,7 @@ impl Drop for GpuProfiler {
 /// harmlessly. (It was a dispatch with no pipeline bound, which lavapipe
 /// records but NVIDIA's driver (580, H200) crashes on.)
 #[doc(hidden)]
+#[cfg(any(test, feature = "internals"))]
 pub fn record_labelled_fault(device: &Arc<Device>) -> Result<()> {
     let cmds = Commands::new(device, "label probe commands")?;
     let mut profiler = GpuProfiler::new(device, "label probe", 4)?;

@@ -82,7 +82,6 @@ pub struct VisibilityPass {
     flags_pipeline: Pipeline,
     commands: Commands,
     profiler: Option<GpuProfiler>,
-    depth_format: vk::Format,
     /// GPU time per pass across all batches.
     pub times: StageTimes,
 }
@@ -226,7 +225,6 @@ impl VisibilityPass {
             flags_pipeline,
             commands: Commands::new(device, "visibility commands")?,
             profiler: Some(GpuProfiler::new(device, "visibility timestamps", 8)?),
-            depth_format,
             times: StageTimes::default(),
         })
     }
@@ -470,10 +468,6 @@ impl VisibilityPass {
         }
         self.profiler = profiler;
         self.commands.end()
-    }
-
-    pub fn depth_format(&self) -> vk::Format {
-        self.depth_format
     }
 }
 

@@ -208,12 +208,7 @@ impl<'a> MeshBuilder<'a> {
 
     /// The same mesher's mesh at a finer `max_edge` (the display mesh
     /// the final gather shades), its cost checked first; the blocker table
-    /// is reused.
-    pub fn build_finer(&mut self, max_edge: f32) -> Result<(Mesh, MeshReport)> {
-        self.build_finer_metered(max_edge, &mut MeshMeter::silent())
-    }
-
-    /// [`Self::build_finer`], counted on `meter` (see [`Self::build_metered`]).
+    /// is reused. Counted on `meter` (see [`Self::build_metered`]).
     pub fn build_finer_metered(
         &mut self,
         max_edge: f32,

@@ -17,6 +17,7 @@ mod split;
 pub mod uniform;
 
 pub use junction::remove_t_junctions;
+#[cfg(any(test, feature = "internals"))]
 pub use sanity::{coplanar_t_junctions, distinct_t_junctions, TJunction};
 pub use uniform::{default_max_edge, element_count, uniform};
 

@@ -55,6 +55,7 @@ impl<'a> MeshMeter<'a> {
         Ok(())
     }
 
+    #[cfg(any(test, feature = "internals"))]
     pub fn done(&self) -> usize {
         self.done
     }

@@ -13,7 +13,9 @@ mod coplanar;
 mod cross_patch;
 mod grid;
 pub(crate) use coplanar::F32_SLACK;
-pub use coplanar::{coplanar_t_junctions, distinct_t_junctions, TJunction};
+pub use coplanar::{coplanar_t_junctions, TJunction};
+#[cfg(any(test, feature = "internals"))]
+pub use coplanar::distinct_t_junctions;
 pub(crate) use cross_patch::{shared_edges, SharedEdge};
 use grid::Grid;
 

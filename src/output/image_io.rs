@@ -187,6 +187,7 @@ pub fn save_image(img: &HdrImage, path: &Path, exposure: Option<f32>) -> Result<
 
 /// Reads a PNG (or any format `image` decodes) as 8-bit RGB:
 /// `(width, height, pixels)`, row-major, top row first.
+#[cfg(any(test, feature = "internals"))]
 pub fn load_png_rgb8(path: &Path) -> Result<(u32, u32, Vec<[u8; 3]>)> {
     let img = image::open(path).map_err(|e| match e {
         image::ImageError::IoError(io) => Error::io(path, io),

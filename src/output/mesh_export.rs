@@ -11,9 +11,6 @@ use super::tonemap::tonemap;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
 
-/// The mesh extensions [`export_mesh`] understands.
-pub const SUPPORTED_MESH_EXTENSIONS: &[&str] = &["ply", "obj", "glb", "gltf"];
-
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum MeshFormat {
     Ply,

@@ -23,10 +23,9 @@ mod surfaces;
 mod tests;
 mod texture;
 
-pub use polygon::{PLANARITY_TOLERANCE, SCENE_EPSILON};
-pub use reflectance::{ELEMENT_SAMPLING, PATCH_SAMPLING};
-pub use surfaces::SMOOTH_COS;
-pub use texture::{srgb_to_linear_table, Texture};
+pub use polygon::SCENE_EPSILON;
+pub use reflectance::ELEMENT_SAMPLING;
+pub use texture::Texture;
 
 /// A diffuse material.
 #[derive(Debug, Clone, PartialEq)]
@@ -246,6 +245,7 @@ fn decode(path: &Path, bytes: Vec<u8>) -> Result<String> {
 /// Loads a scene from OBJ text. `name` is the file name used in messages
 /// (its stem names the scene); `mtl_lookup` returns the text of the MTL file
 /// a `mtllib` statement names, or `None` when there is no such file.
+#[cfg(any(test, feature = "internals"))]
 pub fn load_from_str(
     name: &str,
     obj: &str,

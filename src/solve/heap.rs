@@ -39,10 +39,12 @@ impl IndexedMaxHeap {
     }
 
     /// The number of items.
+    #[cfg(any(test, feature = "internals"))]
     pub fn len(&self) -> usize {
         self.keys.len()
     }
 
+    #[cfg(any(test, feature = "internals"))]
     pub fn is_empty(&self) -> bool {
         self.keys.is_empty()
     }
@@ -56,11 +58,13 @@ impl IndexedMaxHeap {
     }
 
     /// The current key of `item`. Panics when `item >= len()`.
+    #[cfg(any(test, feature = "internals"))]
     pub fn key(&self, item: usize) -> f32 {
         self.keys[item]
     }
 
     /// All keys, indexed by item.
+    #[cfg(any(test, feature = "internals"))]
     pub fn keys(&self) -> &[f32] {
         &self.keys
     }

@@ -14,6 +14,10 @@ pub mod solution;
 
 pub use hierarchy::{HierarchyRule, ShooterTree};
 pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};
-pub use progressive::{default_batch, solve, solve_batched, Progress, Shooting, SolveSettings};
-pub use shoot::{CpuFormFactors, FormFactorMethod, GpuMesh, Shots};
-pub use solution::{area_mean, Solution};
+pub use progressive::{solve, Progress, Shooting, SolveSettings};
+#[cfg(any(test, feature = "internals"))]
+pub use progressive::{default_batch, solve_batched};
+pub use shoot::FormFactorMethod;
+#[cfg(any(test, feature = "internals"))]
+pub use shoot::{CpuFormFactors, GpuMesh, Shots};
+pub use solution::Solution;

@@ -108,7 +108,7 @@ pub fn patch_form_factors_cpu(
                 .ok_or_else(|| Error::Invalid("ray tracing needs a CPU method".into()))?;
             for (j, range) in mesh.patch_elements.iter().enumerate() {
                 for k in range.start as usize..range.end as usize {
-                    let from_k = cpu.from_shooter(k, k as u64);
+                    let from_k = cpu.shooter_row(k, k as u64);
                     let a_k = mesh.elements[k].area as f64;
                     for (e, f) in from_k.iter().enumerate() {
                         if *f > 0.0 {

@@ -161,13 +161,13 @@ impl<'a> CpuFormFactors<'a> {
     }
 
     /// F(shooter -> every element). `salt` varies the ray pattern per shot.
-    pub fn from_shooter(&self, shooter: usize, salt: u64) -> Vec<f32> {
-        self.from_shooter_with_vertices(shooter, salt).0
+    pub fn shooter_row(&self, shooter: usize, salt: u64) -> Vec<f32> {
+        self.shooter_row_with_vertices(shooter, salt).0
     }
 
     /// F(shooter -> every element), and for ray tracing also F(vertex <-
     /// shooter) at every vertex (Wallace's vertex-to-source values).
-    pub fn from_shooter_with_vertices(
+    pub fn shooter_row_with_vertices(
         &self,
         shooter: usize,
         salt: u64,
@@ -175,7 +175,7 @@ impl<'a> CpuFormFactors<'a> {
         match self {
             CpuFormFactors::RayTrace { tracer, rays } => {
                 let seed = salt.wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ shooter as u64;
-                let (elements, vertices) = tracer.from_shooter_with_vertices(shooter, *rays, seed);
+                let (elements, vertices) = tracer.shooter_row_with_vertices(shooter, *rays, seed);
                 (elements, Some(vertices))
             }
             CpuFormFactors::Analytic { scene, mesh } => {
@@ -452,7 +452,7 @@ impl<'a> Shots<'a> {
             return Err(Error::Invalid("no CPU form-factor method".into()));
         };
         let t = Instant::now();
-        let (ff, vertex_ff) = cpu.from_shooter_with_vertices(shooter as usize, salt);
+        let (ff, vertex_ff) = cpu.shooter_row_with_vertices(shooter as usize, salt);
         if let (Some(vb), Some(vff)) = (self.vertex_radiosity.as_mut(), vertex_ff) {
             // dB_v = rho_v F(v <- i) dB_i, at the vertices themselves.
             for (v, (b, f)) in vb.iter_mut().zip(vff).enumerate() {

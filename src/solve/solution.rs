@@ -46,18 +46,6 @@ pub struct Solution {
     pub wall_seconds: f64,
 }
 
-/// Area-weighted mean of per-element values over all elements (used by the
-/// energy-balance tests and the summary).
-pub fn area_mean(mesh: &Mesh, values: &[[f32; 3]]) -> Vec3 {
-    let mut sum = Vec3::ZERO;
-    let mut area = 0.0;
-    for (e, v) in mesh.elements.iter().zip(values) {
-        sum += Vec3::from(*v) * e.area;
-        area += e.area;
-    }
-    sum / area
-}
-
 impl Solution {
     /// Per-vertex radiosity for display: the solver's own vertex values
     /// where it has them (CPU methods), else the area-weighted element

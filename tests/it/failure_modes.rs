@@ -172,7 +172,7 @@ fn hemicube_aliasing_small_distant_elements() {
         ("ray trace, Wallace, 16 rays", Estimator::Wallace, 16),
     ] {
         let rt = RayTracedFormFactors::new(&scene, &mesh).with_estimator(estimator);
-        let f = rt.from_shooter(shooter, rays, 1);
+        let f = rt.shooter_row(shooter, rays, 1);
         let est: Vec<f64> = receivers.iter().map(|&j| f64::from(f[j])).collect();
         rows.push((name.to_owned(), error_stats(&est, &area)));
     }
@@ -290,7 +290,7 @@ fn near_field_receiver_close_to_large_shooter() {
         let target = coarse.patch_elements[receiver].start as usize;
         let trace = |estimator, rays| {
             let rt = RayTracedFormFactors::new(&scene, &coarse).with_estimator(estimator);
-            f64::from(rt.from_shooter(shooter, rays, 7)[target])
+            f64::from(rt.shooter_row(shooter, rays, 7)[target])
         };
         let rt_exact = trace(Estimator::ExactTimesVisibility, 16);
         let wallace_16 = trace(Estimator::Wallace, 16);
@@ -420,7 +420,7 @@ fn grazing_receiver_near_the_horizon() {
         ] {
             let rt = RayTracedFormFactors::new(&scene, &mesh).with_estimator(estimator);
             row.push(rel(
-                on_wall(&as_f64(rt.from_shooter(shooter, rays, 3))),
+                on_wall(&as_f64(rt.shooter_row(shooter, rays, 3))),
                 exact,
             ));
         }
@@ -724,7 +724,7 @@ fn small_shooters_beside_large_receivers() {
             (f64::INFINITY, 0.0f64, 0.0f64, 0.0f64);
         let t = std::time::Instant::now();
         for &i in &shooters {
-            let f = rt.from_shooter(i, 16, i as u64);
+            let f = rt.shooter_row(i, 16, i as u64);
             assert!(f.iter().all(|x| x.is_finite() && *x >= 0.0));
             let sum: f64 = f.iter().map(|&x| f64::from(x)).sum();
             assert!(sum <= 1.0 + 1e-5, "{name}: element {i} row sums to {sum}");
@@ -734,8 +734,8 @@ fn small_shooters_beside_large_receivers() {
         let per_shot = t.elapsed().as_secs_f64() / shooters.len() as f64;
         let row = |f: Vec<f32>| f.iter().map(|&x| f64::from(x)).sum::<f64>();
         for &i in &shooters {
-            corner_max = corner_max.max(row(wallace.from_shooter(i, 16, i as u64)));
-            unchecked_max = unchecked_max.max(row(unchecked.from_shooter(i, 16, i as u64)));
+            corner_max = corner_max.max(row(wallace.shooter_row(i, 16, i as u64)));
+            unchecked_max = unchecked_max.max(row(unchecked.shooter_row(i, 16, i as u64)));
         }
         let areas = mesh.elements.iter().map(|e| e.area);
         let (amin, amax) = areas.fold((f32::INFINITY, 0.0f32), |(a, b), x| (a.min(x), b.max(x)));

@@ -19,7 +19,9 @@
 
 use glam::Vec3;
 
-use super::occluders::{fan_triangles, hits, scene_epsilon, Tri};
+use super::occluders::{fan_triangles, scene_epsilon};
+#[cfg(any(test, feature = "internals"))]
+use super::occluders::{hits, Tri};
 pub use crate::geom::bvh_layout::{BvhNode, BvhTriangle};
 use crate::scene::Scene;
 
@@ -30,6 +32,7 @@ const LEAF_SIZE: usize = 4;
 const BINS: usize = 16;
 
 impl BvhTriangle {
+    #[cfg(any(test, feature = "internals"))]
     fn tri(&self) -> Tri {
         Tri {
             v0: self.v0.into(),
@@ -140,6 +143,7 @@ impl FlatBvh {
     /// Whether the segment from `a` to `b` is unblocked, by a CPU walk of
     /// this hierarchy (what `glsl/bvh.glsl` does), with the rules of
     /// [`Occluders::visible`](super::Occluders::visible).
+    #[cfg(any(test, feature = "internals"))]
     pub fn visible(&self, a: Vec3, b: Vec3, skip: [u32; 2]) -> bool {
         let d = b - a;
         let len = d.length();
@@ -172,6 +176,7 @@ impl FlatBvh {
 
     /// [`FlatBvh::visible`] by testing every triangle, no hierarchy: the
     /// reference that tells a tree's culling from the triangle test.
+    #[cfg(any(test, feature = "internals"))]
     pub fn visible_brute_force(&self, a: Vec3, b: Vec3, skip: [u32; 2]) -> bool {
         let d = b - a;
         let len = d.length();
@@ -188,6 +193,7 @@ impl FlatBvh {
     /// triangle inside its leaf's box, every child's box inside its
     /// parent's, child indices in range and depth first, depth at most
     /// [`MAX_DEPTH`].
+    #[cfg(any(test, feature = "internals"))]
     pub fn sanity_check(&self) -> Result<(), String> {
         if self.nodes.is_empty() {
             return match self.triangles.len() {
@@ -251,6 +257,7 @@ impl FlatBvh {
 /// A direction with no zero component (a tiny one of the same sign
 /// instead), so that its inverse is finite and the slab test never makes
 /// `0 * inf`. `glsl/bvh.glsl` does the same.
+#[cfg(any(test, feature = "internals"))]
 fn safe_direction(d: Vec3) -> Vec3 {
     let fix = |x: f32| {
         if x.abs() < 1e-30 {
@@ -264,6 +271,7 @@ fn safe_direction(d: Vec3) -> Vec3 {
 
 /// Whether the segment `a + t d`, `t` in `[tmin, tmax]`, meets the node's
 /// box (`inv = 1 / d`).
+#[cfg(any(test, feature = "internals"))]
 fn slab(n: &BvhNode, a: Vec3, inv: Vec3, tmin: f32, tmax: f32) -> bool {
     let t0 = (Vec3::from(n.min) - a) * inv;
     let t1 = (Vec3::from(n.max) - a) * inv;

@@ -93,6 +93,7 @@ pub enum Estimator {
     /// shooter's plane (a wall's foot, shooter on the floor) gets about 0
     /// instead of 0.5, which costs a meshed wall ~5% of its form factor
     /// from a floor element (see the tests).
+    #[cfg_attr(not(any(test, feature = "internals")), allow(dead_code))]
     Wallace,
     /// The exact unoccluded point form factor (`analytic::point_to_polygon`)
     /// times the visible fraction of the eq. 2.11 terms,
@@ -104,7 +105,7 @@ pub enum Estimator {
 }
 
 /// Ray-traced element form factors for one scene and mesh. Build once,
-/// call [`RayTracedFormFactors::from_shooter`] for every shot.
+/// call [`RayTracedFormFactors::shooter_row`] for every shot.
 #[derive(Debug, Clone)]
 pub struct RayTracedFormFactors<'a> {
     /// How a vertex's form factor is estimated from its rays.
@@ -113,7 +114,6 @@ pub struct RayTracedFormFactors<'a> {
     /// estimator only; see the module notes). On by default; off only to
     /// measure what the check does.
     pub source_check: bool,
-    pub scene: &'a Scene,
     pub mesh: &'a Mesh,
     pub occluders: Occluders,
     /// Where each mesh vertex is evaluated (see [`VERTEX_INSET`]).
@@ -126,6 +126,7 @@ pub struct RayTracedFormFactors<'a> {
 
 impl<'a> RayTracedFormFactors<'a> {
     /// The same, estimating with `estimator`.
+    #[cfg(any(test, feature = "internals"))]
     pub fn with_estimator(mut self, estimator: Estimator) -> Self {
         self.estimator = estimator;
         self
@@ -136,7 +137,6 @@ impl<'a> RayTracedFormFactors<'a> {
         RayTracedFormFactors {
             estimator: Estimator::default(),
             source_check: true,
-            scene,
             mesh,
             occluders: Occluders::new(scene),
             vertex_points,
@@ -153,15 +153,16 @@ impl<'a> RayTracedFormFactors<'a> {
     ///
     /// # Panics
     /// If `shooter` is not an element index.
-    pub fn from_shooter(&self, shooter: usize, rays: usize, seed: u64) -> Vec<f32> {
-        self.from_shooter_with_vertices(shooter, rays, seed).0
+    #[cfg(any(test, feature = "internals"))]
+    pub fn shooter_row(&self, shooter: usize, rays: usize, seed: u64) -> Vec<f32> {
+        self.shooter_row_with_vertices(shooter, rays, seed).0
     }
 
-    /// [`Self::from_shooter`], plus the point form factor F(vertex <- shooter)
+    /// [`Self::shooter_row`], plus the point form factor F(vertex <- shooter)
     /// at every mesh vertex (0 on the shooter's own patch): Wallace's
     /// vertex-to-source values, from which radiosity at the vertices follows
     /// directly (no averaging through elements).
-    pub fn from_shooter_with_vertices(
+    pub fn shooter_row_with_vertices(
         &self,
         shooter: usize,
         rays: usize,
@@ -273,6 +274,7 @@ impl<'a> RayTracedFormFactors<'a> {
     ///
     /// # Panics
     /// If `shooter` is not an element index.
+    #[cfg(any(test, feature = "internals"))]
     pub fn point_from_shooter(
         &self,
         p: Vec3,
@@ -291,6 +293,7 @@ impl<'a> RayTracedFormFactors<'a> {
     }
 
     /// Eq. 2.11 at one point.
+    #[cfg(any(test, feature = "internals"))]
     fn point_ff(
         &self,
         p: Vec3,

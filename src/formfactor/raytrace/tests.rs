@@ -220,7 +220,7 @@ fn patch_sum(shooter: &[Vec3], receiver: &[Vec3], estimator: Estimator, rays: us
     let mesh = mesh_per_patch(&s, &[10.0, 1.0 / 32.0]);
     assert_eq!(mesh.elements.len(), 1 + 32 * 32);
     let rt = RayTracedFormFactors::new(&s, &mesh).with_estimator(estimator);
-    let f = rt.from_shooter(0, rays, 3);
+    let f = rt.shooter_row(0, rays, 3);
     assert_eq!(f.len(), mesh.elements.len());
     assert_eq!(f[0], 0.0);
     let traced = f.iter().map(|&x| f64::from(x)).sum::<f64>();
@@ -328,7 +328,7 @@ fn reciprocity_between_meshed_patches() {
         mesh.patch_elements[from]
             .clone()
             .map(|i| {
-                let f = rt.from_shooter(i as usize, 64, i as u64);
+                let f = rt.shooter_row(i as usize, 64, i as u64);
                 let sum: f64 = f[r.start as usize..r.end as usize]
                     .iter()
                     .map(|&x| f64::from(x))
@@ -395,7 +395,7 @@ fn closed_cube_rows_sum_to_one() {
             } else {
                 assert!((a - 1.0).abs() < 3e-3, "level {level}, {shooter}: {a}");
             }
-            let f = rt.from_shooter(shooter, 16, 5);
+            let f = rt.shooter_row(shooter, 16, 5);
             let own = mesh.elements[shooter].patch as usize;
             let r = mesh.patch_elements[own].clone();
             assert!(f[r.start as usize..r.end as usize]
@@ -424,9 +424,9 @@ fn traced_matches_analytic_without_occluders_and_is_deterministic() {
     // (the elements' values differ by design: the analytic method
     // integrates elements near the shooter, Wallace's averages corners).
     let (exact, exact_vertices) = element_and_vertex_form_factors_analytic(&s, &mesh, shooter);
-    let (f, vertices) = rt.from_shooter_with_vertices(shooter, 1024, 9);
-    assert_eq!(f, rt.from_shooter(shooter, 1024, 9));
-    assert_ne!(f, rt.from_shooter(shooter, 1024, 10));
+    let (f, vertices) = rt.shooter_row_with_vertices(shooter, 1024, 9);
+    assert_eq!(f, rt.shooter_row(shooter, 1024, 9));
+    assert_ne!(f, rt.shooter_row(shooter, 1024, 10));
     for (j, (&a, &b)) in f.iter().zip(&exact).enumerate() {
         assert_eq!(a == 0.0, b == 0.0, "element {j}: {a} vs {b}");
     }
@@ -438,7 +438,7 @@ fn traced_matches_analytic_without_occluders_and_is_deterministic() {
         }
     }
     assert!(worst < 2e-2, "worst relative difference {worst}");
-    assert!(rt.from_shooter(shooter, 0, 9).iter().all(|&x| x == 0.0));
+    assert!(rt.shooter_row(shooter, 0, 9).iter().all(|&x| x == 0.0));
 }
 
 #[test]
@@ -449,7 +449,7 @@ fn coplanar_receivers_get_nothing() {
     let s = scene(&[&left, &right]);
     let mesh = uniform(&s, 0.5);
     let rt = RayTracedFormFactors::new(&s, &mesh);
-    assert!(rt.from_shooter(0, 16, 1).iter().all(|&x| x == 0.0));
+    assert!(rt.shooter_row(0, 16, 1).iter().all(|&x| x == 0.0));
     assert!(element_form_factors_analytic(&s, &mesh, 0)
         .iter()
         .all(|&x| x == 0.0));
@@ -467,7 +467,7 @@ fn cornell_shot_from_the_light() {
         .iter()
         .position(|e| s.patch_material(e.patch).is_emitter())
         .expect("a light element");
-    let f = rt.from_shooter(light, 16, 1);
+    let f = rt.shooter_row(light, 16, 1);
     let exact = element_form_factors_analytic(&s, &mesh, light);
     let (t, a): (f32, f32) = (f.iter().sum(), exact.iter().sum());
     // The open front lets some light out; the blocks shadow the floor.
@@ -497,7 +497,7 @@ fn small_shooters_beside_large_receivers_keep_rows_at_most_one() {
         .step_by(7)
         .chain([0, 63, 64 * 63, 64 * 64 - 1])
     {
-        let f = rt.from_shooter(i as usize, 16, 1);
+        let f = rt.shooter_row(i as usize, 16, 1);
         let sum: f64 = f.iter().map(|&x| f64::from(x)).sum();
         lo = lo.min(sum);
         hi = hi.max(sum);
@@ -508,7 +508,7 @@ fn small_shooters_beside_large_receivers_keep_rows_at_most_one() {
     );
     // Wallace's estimator, kept as published, still averages corners.
     let wallace = rt.clone().with_estimator(Estimator::Wallace);
-    let sum: f32 = wallace.from_shooter(0, 16, 1).iter().sum();
+    let sum: f32 = wallace.shooter_row(0, 16, 1).iter().sum();
     assert!(sum > 10.0, "{sum}");
 }
 

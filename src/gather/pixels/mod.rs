@@ -35,7 +35,9 @@ mod coverage;
 mod shadow_edges;
 
 use coverage::cast_pixels;
-pub use coverage::{CameraRayTracer, FIRST_COVERAGE};
+pub use coverage::CameraRayTracer;
+#[cfg(any(test, feature = "internals"))]
+pub use coverage::FIRST_COVERAGE;
 
 /// Where the final gather shades the image.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -445,6 +447,7 @@ impl PixelPoints {
 
     /// The patches pixel `p` (row-major, top row first) shows, each with
     /// its share of the pixel's camera rays.
+    #[cfg(any(test, feature = "internals"))]
     pub fn shown(&self, p: usize) -> Vec<(u32, f32)> {
         let range = self.pixel_start[p] as usize..self.pixel_start[p + 1] as usize;
         let group = |&(g, share): &(u32, f32)| (self.group_patch[g as usize], share);
@@ -461,6 +464,7 @@ impl PixelPoints {
         self.reflected_frames.len() + self.direct_frames.len() + self.across_frames.len()
     }
 
+    #[cfg(any(test, feature = "internals"))]
     pub fn is_empty(&self) -> bool {
         self.group_patch.is_empty()
     }

@@ -19,6 +19,7 @@ pub struct GpuBvh {
     nodes: Buffer,
     triangles: Buffer,
     node_count: u32,
+    #[cfg(any(test, feature = "internals"))]
     triangle_count: u32,
     eps: f32,
 }
@@ -44,6 +45,7 @@ impl GpuBvh {
             nodes: upload(device, "bvh nodes", nodes, usage)?,
             triangles: upload(device, "bvh triangles", triangles, usage)?,
             node_count: nodes.len() as u32,
+            #[cfg(any(test, feature = "internals"))]
             triangle_count: triangles.len() as u32,
             eps,
         })
@@ -53,6 +55,7 @@ impl GpuBvh {
         self.node_count
     }
 
+    #[cfg(any(test, feature = "internals"))]
     pub fn triangle_count(&self) -> u32 {
         self.triangle_count
     }

@@ -92,6 +92,7 @@ impl SourceGatherPass {
 
     /// How many rays (counted per point as every source's `rays`, plus the
     /// first rays and corners of an early out) one submission may cast.
+    #[cfg(any(test, feature = "internals"))]
     pub fn set_rays_per_submission(&mut self, rays: u64) {
         self.rays_per_submission = rays.max(1);
     }

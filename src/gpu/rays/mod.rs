@@ -33,11 +33,13 @@ use crate::error::Result;
 pub(crate) mod bvh;
 pub(crate) mod first_hit;
 pub(crate) mod gather;
+#[cfg(any(test, feature = "internals"))]
 pub(crate) mod occlusion;
 
 pub use bvh::GpuBvh;
 pub use first_hit::{FirstHitPass, Hit, Ray};
 pub use gather::{SourceGatherPass, CORNER_INSET, FIRST_RAYS, MAX_SOURCE_CORNERS};
+#[cfg(any(test, feature = "internals"))]
 pub use occlusion::OcclusionPass;
 
 pub use crate::geom::bvh_layout::{BvhNode, BvhTriangle};
@@ -79,6 +81,7 @@ pub struct Segment {
 }
 
 impl Segment {
+    #[cfg(any(test, feature = "internals"))]
     pub fn new(a: [f32; 3], b: [f32; 3], skip: [u32; 2]) -> Self {
         Segment {
             a,
@@ -299,6 +302,7 @@ fn chunk_job(
 /// The stage name for a submission timed on the CPU.
 fn cpu_timer_name(stage: &'static str) -> &'static str {
     match stage {
+        #[cfg(any(test, feature = "internals"))]
         occlusion::STAGE => "ray occlusion (CPU timer)",
         gather::STAGE => "source gather (CPU timer)",
         first_hit::STAGE => "first-hit rays (CPU timer)",

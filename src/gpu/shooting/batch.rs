@@ -55,6 +55,7 @@ pub struct BatchIds {
 impl ShootingEngine {
     /// Shoots `shooters` in order, in one submission, and waits for it:
     /// [`Self::submit`] then [`Self::wait`]. No other batch may be in flight.
+    #[cfg(any(test, feature = "internals"))]
     pub fn shoot(&mut self, shooters: &[Shooter]) -> Result<BatchResult> {
         self.ensure_idle("a synchronous batch")?;
         self.submit(shooters)?;

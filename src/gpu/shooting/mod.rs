@@ -45,7 +45,9 @@ pub use batch::{BatchIds, BatchResult, MAX_BATCH};
 use cull::FaceCull;
 use frame::BatchFrame;
 pub use frame::FRAMES;
-pub use params::{ElementGeometry, Region, Shooter, ShotParams, MAX_CHILDREN, MAX_OUTLINE};
+pub use params::{ElementGeometry, Region, Shooter, ShotParams};
+#[cfg(any(test, feature = "internals"))]
+pub use params::{MAX_CHILDREN, MAX_OUTLINE};
 use setup::{bind_all, pipelines};
 
 /// Fixed-point scale of accumulated form factors: F = sum / 2^31
@@ -410,6 +412,7 @@ impl ShootingEngine {
     }
 
     /// Batches submitted and not yet waited for.
+    #[cfg(any(test, feature = "internals"))]
     pub fn in_flight(&self) -> usize {
         self.in_flight.len()
     }
@@ -427,6 +430,7 @@ impl ShootingEngine {
         }
     }
 
+    #[cfg(any(test, feature = "internals"))]
     pub fn element_count(&self) -> usize {
         self.element_count as usize
     }

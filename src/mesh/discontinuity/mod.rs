@@ -51,6 +51,7 @@ pub mod visibility;
 use arrange::Arrangement;
 use project::{collect_segments, inside_convex, Frame};
 use silhouette::Silhouettes;
+#[cfg(any(test, feature = "internals"))]
 pub use visibility::cpu_blockers;
 
 /// How much of the shadows' structure a mesh models.
@@ -190,6 +191,7 @@ pub struct DiscontinuityStats {
 /// Every patch gets elements (triangles, counter-clockwise seen from its
 /// front, in patch order); vertices are per patch. Errors only for invalid
 /// options.
+#[cfg(any(test, feature = "internals"))]
 pub fn discontinuity_mesh(
     scene: &Scene,
     blockers: &dyn Fn(usize, usize, usize) -> Option<Vec<usize>>,

@@ -6,7 +6,9 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use glam::{DVec3, Mat4, Vec3};
+use glam::{Mat4, Vec3};
+#[cfg(any(test, feature = "internals"))]
+use glam::DVec3;
 use rayon::prelude::*;
 
 use super::shaft::{PatchBvh, Shaft};
@@ -136,6 +138,7 @@ pub fn tile_view(v: Vec3, target: &[Vec3], normal: Vec3, res: u32) -> Option<Mat
 /// that gets shadow lines in `detail`. Each tile draws only the polygons in the shaft from its light point to
 /// its target (`shaft`, thesis 4.2.2); a pair whose shaft holds none is lit
 /// and unblocked without a tile.
+#[cfg(any(test, feature = "internals"))]
 pub fn gpu_blockers(
     device: &Arc<Device>,
     scene: &Scene,
@@ -383,6 +386,7 @@ impl<'a> Tiler<'a> {
 /// patch other than `t` and `e` with a vertex strictly in front of `t`'s
 /// plane and strictly below `v`'s height above it, that is not wholly
 /// outside one side of the pyramid from `v` through `t`'s edges.
+#[cfg(any(test, feature = "internals"))]
 pub fn cpu_blockers(scene: &Scene) -> impl Fn(usize, usize, usize) -> Option<Vec<usize>> + '_ {
     let extent = f64::from(scene.extent());
     let eps = if extent.is_finite() {
