@@ -1,15 +1,12 @@
-//! Where the display mesh is too coarse for the gathered light: the image
-//! interpolates the vertex values linearly, so inside a penumbra (whose
-//! profile is curved, and whose edge-edge boundaries the planar projection
+//! The display mesh's centroid refinement ([`crate::mesh::refine`]), with
+//! the final gather supplying the light at the centroids. Inside a
+//! penumbra (curved, and whose edge-edge boundaries the planar projection
 //! does not mesh) or across a skinny element between shadow lines, the
 //! Gouraud value can be far from the light that falls there.
 //!
-//! An element is suspect when its corners disagree (a gradient); a
-//! suspect is split when the value gathered at its centroid differs from
-//! the mean of its corners by more than a tolerance of the local level
-//! (a curve, which Gouraud shading cannot show, and not a ramp, which it
-//! can). Only suspects are gathered at, so a smooth scene pays almost
-//! nothing.
+//! Only suspects are gathered at: elements whose corners disagree (a
+//! gradient), so a smooth scene pays almost nothing. A suspect's gap is
+//! judged against the local level (deep shadow counts as a floor).
 
 use std::collections::HashSet;
 
@@ -20,7 +17,7 @@ use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
-use crate::solve::adaptive::{corner_mean, longest_edge, mean_receiver_radiosity_of};
+use crate::mesh::refine::{self, corner_mean, longest_edge, mean_receiver_level, CentroidGap};
 
 /// Corners whose shared normal is within about 0.25 degrees of their
 /// element's count as flat.
@@ -69,12 +66,13 @@ pub fn split_points(
     meter: &mut Meter,
 ) -> Option<Vec<(usize, [f32; 3])>> {
     let place = place_cells(scene);
+    let levels: Vec<f32> = values.iter().map(|&b| luminance(b)).collect();
     // The lowest and highest corner level.
     let corner_range = |k: usize| -> (f32, f32) {
         display.elements[k]
             .corners()
             .iter()
-            .map(|&v| luminance(values[v as usize]))
+            .map(|&v| levels[v as usize])
             .fold((f32::INFINITY, 0.0f32), |(lo, hi), l| {
                 (lo.min(l), hi.max(l))
             })
@@ -97,7 +95,7 @@ pub fn split_points(
         let e = &display.elements[k];
         is_shown(k) && e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
     };
-    let Some(mean) = mean_receiver_radiosity_of(scene, display, values, is_shown) else {
+    let Some(mean) = mean_receiver_level(scene, display, &levels, is_shown) else {
         return Some(Vec::new());
     };
     let floor = settings.floor * mean;
@@ -105,7 +103,7 @@ pub fn split_points(
         .filter(|&k| receiving(k) && longest_edge(display, k) >= settings.min_edge)
         .filter(|&k| {
             let (lo, hi) = corner_range(k);
-            let mean = corner_mean(&display.elements[k], values);
+            let mean = corner_mean(&display.elements[k], &levels);
             hi - lo > settings.suspect * mean.max(floor)
         })
         .filter(|&k| checked.centres.insert(place(display.elements[k].centre)))
@@ -119,18 +117,26 @@ pub fn split_points(
         .collect();
     meter.total += frames.len();
     let at_centres = gather.at_points_metered(&frames, meter)?;
-    let mut split: Vec<(f32, usize, [f32; 3])> = suspects
+    // The gap is judged against the local level: the larger of the
+    // centroid's and the corners' (at least the floor).
+    let gaps: Vec<CentroidGap> = suspects
         .iter()
-        .zip(at_centres)
-        .filter_map(|(&k, value)| {
+        .zip(&at_centres)
+        .map(|(&element, &value)| {
             let centre = luminance(value);
-            let mean = corner_mean(&display.elements[k], values);
-            let gap = (centre - mean).abs();
-            (gap > settings.tolerance * centre.max(mean).max(floor))
-                .then(|| (gap * gap * display.elements[k].area, k, value))
+            let mean = corner_mean(&display.elements[element], &levels);
+            CentroidGap {
+                element,
+                gap: (centre - mean).abs(),
+                limit: settings.tolerance * centre.max(mean).max(floor),
+            }
         })
         .collect();
-    split.sort_by(|a, b| b.0.total_cmp(&a.0));
-    split.truncate(display.elements.len() / 4);
-    Some(split.into_iter().map(|(_, k, value)| (k, value)).collect())
+    let split = refine::worst_first(display, &gaps, display.elements.len() / 4);
+    Some(
+        split
+            .into_iter()
+            .map(|i| (gaps[i].element, at_centres[i]))
+            .collect(),
+    )
 }

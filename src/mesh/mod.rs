@@ -11,6 +11,7 @@ pub mod discontinuity;
 pub mod display;
 mod junction;
 pub mod progress;
+pub mod refine;
 mod sanity;
 pub mod smooth;
 mod split;

@@ -1,18 +1,9 @@
-//! A-posteriori (adaptive) refinement: find the elements where the Gouraud
-//! image is wrong, give the mesher points to split them, mesh and solve
-//! again ([`refine_and_resolve`]).
-//!
-//! The image interpolates vertex radiosities linearly across each element,
-//! so its error inside an element is the gap between the true radiosity and
-//! that interpolation. We measure the gap where it is largest for a smooth
-//! field, at the centroid: the radiosity gathered there from the solved
-//! mesh ([`Gatherer`]) against the mean of the corners. This sees curvature
-//! in smooth regions as well as a shadow edge the mesh missed; a test on
-//! corner differences alone (a gradient) cannot tell a linear ramp, which
-//! Gouraud shading reproduces exactly, from a curve, which it does not.
-//!
-//! Elements are taken worst first, by `gap^2 x area` (their share of the
-//! image's squared error), above a tolerance and within an element budget.
+//! The solve's a-posteriori refinement ([`refine_and_resolve`]): centroid
+//! refinement ([`crate::mesh::refine`]) with the light at the centroids
+//! gathered from the solved mesh by the reference [`Gatherer`]; the
+//! centroids go to the mesher as points, and the scene is meshed and
+//! solved again. Every element is looked at, its gap judged against the
+//! mean receiver level, within an element budget.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -25,7 +16,10 @@ use crate::error::Result;
 use crate::formfactor::gather::{GatherRays, Gatherer};
 use crate::gpu::Device;
 use crate::mesh::build::{check_mesh, MeshBuilder, MeshReport};
-use crate::mesh::{Element, Mesh};
+use crate::mesh::refine::{
+    self, corner_mean, is_emitter, longest_edge, mean_receiver_level, CentroidGap,
+};
+use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 
@@ -151,6 +145,7 @@ pub fn interpolation_gaps(
     let gatherer = Gatherer::new(scene, mesh, element_radiosity, rays);
     let probes: Vec<(Vec3, u32)> = mesh.elements.iter().map(|e| (e.centre, e.patch)).collect();
     let gathered = gatherer.radiosity_at_points(&probes, 0x9e37_79b9);
+    let levels = vertex_levels(vertex_radiosity);
     mesh.elements
         .iter()
         .zip(gathered)
@@ -158,15 +153,16 @@ pub fn interpolation_gaps(
             if is_emitter(scene, e) || e.area <= 0.0 {
                 return 0.0;
             }
-            (luminance(at_centre.to_array()) - corner_mean(e, vertex_radiosity)).abs()
+            (luminance(at_centre.to_array()) - corner_mean(e, &levels)).abs()
         })
         .collect()
 }
 
 /// The centroids of the elements to split (worst first), as
-/// `(patch, point)`. Centroids lie strictly inside their element, so they
-/// never land on a constraint or a patch boundary. At most one point per
-/// two elements is returned, so a pass at most doubles the mesh.
+/// `(patch, point)`: gaps over `tolerance` of the mean receiver level
+/// ([`refine::worst_first`]). Centroids lie strictly inside their element,
+/// so they never land on a constraint or a patch boundary. At most one
+/// point per two elements is returned, so a pass at most doubles the mesh.
 pub fn split_points(
     scene: &Scene,
     mesh: &Mesh,
@@ -174,29 +170,33 @@ pub fn split_points(
     gaps: &[f32],
     settings: &AdaptiveSettings,
 ) -> Vec<(u32, Vec3)> {
-    let Some(mean) = mean_receiver_radiosity(scene, mesh, vertex_radiosity) else {
+    let levels = vertex_levels(vertex_radiosity);
+    let Some(mean) = mean_receiver_level(scene, mesh, &levels, |_| true) else {
         return Vec::new();
     };
     let limit = settings.tolerance * mean;
-    let mut candidates: Vec<(f32, usize)> = mesh
+    let looked_at: Vec<CentroidGap> = mesh
         .elements
         .iter()
         .enumerate()
-        .filter(|&(k, e)| {
-            gaps[k] > limit && longest_edge(mesh, k) >= 2.0 * settings.min_edge && e.area > 0.0
+        .filter(|&(k, e)| longest_edge(mesh, k) >= 2.0 * settings.min_edge && e.area > 0.0)
+        .map(|(element, _)| CentroidGap {
+            element,
+            gap: gaps[element],
+            limit,
         })
-        .map(|(k, e)| (gaps[k] * gaps[k] * e.area, k))
         .collect();
-    candidates.sort_by(|a, b| b.0.total_cmp(&a.0));
     // A centroid adds two triangles (one becomes three).
     let mut room = mesh.elements.len() / 2;
     if let Some(max) = settings.max_elements {
         room = room.min(max.saturating_sub(mesh.elements.len()) / 2);
     }
-    candidates
+    refine::worst_first(mesh, &looked_at, room)
         .into_iter()
-        .take(room)
-        .map(|(_, k)| (mesh.elements[k].patch, mesh.elements[k].centre))
+        .map(|i| {
+            let e = &mesh.elements[looked_at[i].element];
+            (e.patch, e.centre)
+        })
         .collect()
 }
 
@@ -209,7 +209,8 @@ pub fn estimated_error(
     vertex_radiosity: &[[f32; 3]],
     gaps: &[f32],
 ) -> f64 {
-    let Some(mean) = mean_receiver_radiosity(scene, mesh, vertex_radiosity) else {
+    let levels = vertex_levels(vertex_radiosity);
+    let Some(mean) = mean_receiver_level(scene, mesh, &levels, |_| true) else {
         return 0.0;
     };
     let (mut sq, mut area) = (0.0f64, 0.0f64);
@@ -223,51 +224,7 @@ pub fn estimated_error(
     (sq / area).sqrt() / mean as f64
 }
 
-/// The area-weighted mean luminance of the non-emitting surfaces, from the
-/// corner values; `None` when they receive nothing.
-pub(crate) fn mean_receiver_radiosity(
-    scene: &Scene,
-    mesh: &Mesh,
-    vertex_radiosity: &[[f32; 3]],
-) -> Option<f32> {
-    mean_receiver_radiosity_of(scene, mesh, vertex_radiosity, |_| true)
-}
-
-/// [`mean_receiver_radiosity`] over the elements `keep` admits.
-pub(crate) fn mean_receiver_radiosity_of(
-    scene: &Scene,
-    mesh: &Mesh,
-    vertex_radiosity: &[[f32; 3]],
-    keep: impl Fn(usize) -> bool,
-) -> Option<f32> {
-    let (mut sum, mut area) = (0.0f64, 0.0f64);
-    let kept = mesh.elements.iter().enumerate().filter(|&(k, _)| keep(k));
-    for (_, e) in kept.filter(|(_, e)| !is_emitter(scene, e)) {
-        sum += corner_mean(e, vertex_radiosity) as f64 * e.area as f64;
-        area += e.area as f64;
-    }
-    (area > 0.0 && sum > 0.0).then(|| (sum / area) as f32)
-}
-
-/// The Gouraud value at an element's centroid: the mean of its corners.
-pub(crate) fn corner_mean(e: &Element, vertex_radiosity: &[[f32; 3]]) -> f32 {
-    let corners = e.corners();
-    corners
-        .iter()
-        .map(|&v| luminance(vertex_radiosity[v as usize]))
-        .sum::<f32>()
-        / corners.len() as f32
-}
-
-fn is_emitter(scene: &Scene, e: &Element) -> bool {
-    scene.patch_material(e.patch).is_emitter()
-}
-
-pub(crate) fn longest_edge(mesh: &Mesh, element: usize) -> f32 {
-    let corners: Vec<Vec3> = mesh.elements[element]
-        .corners()
-        .iter()
-        .map(|&v| mesh.vertices[v as usize])
-        .collect();
-    crate::mesh::uniform::longest_edge(&corners)
+/// The luminance of every vertex, the level [`refine`] compares.
+fn vertex_levels(vertex_radiosity: &[[f32; 3]]) -> Vec<f32> {
+    vertex_radiosity.iter().map(|&b| luminance(b)).collect()
 }
