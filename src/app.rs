@@ -21,10 +21,12 @@ mod memory;
 mod pipeline;
 mod report;
 mod tuning;
+mod views;
 pub use memory::{peak_resident_bytes, run_estimate, RunEstimate, StageLog};
 pub use pipeline::{mesh_settings, run_scene};
 pub use report::{write_report, GatherFacts, Report};
 pub use tuning::{tune, TUNING};
+pub use views::{load_views, parse_views, View};
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -33,8 +35,11 @@ pub struct Job {
     pub scene: String,
     /// The image to write (`.png`, `.hdr`, `.exr`); `None`: `NAME.png` here.
     pub output: Option<PathBuf>,
-    /// The lit mesh to write (`.ply`, `.obj`).
+    /// The lit mesh to write (`.ply`, `.obj`, `.glb`, `.gltf`).
     pub export: Option<PathBuf>,
+    /// A views file (see [`views`]): the lit mesh is also drawn from each
+    /// of its cameras, one image each.
+    pub views: Option<PathBuf>,
     pub device: DeviceOptions,
     /// Maximum element edge; `None`: relative to the scene's size.
     pub max_edge: Option<f32>,
@@ -70,7 +75,8 @@ pub struct Job {
     /// With a display mesh: gather the vertices of the elements the image
     /// does not show too. Off, only the shown elements' vertices are
     /// gathered and refined (the rest read 0, and reach no pixel); an
-    /// export always gathers all, since a lit mesh is seen from anywhere.
+    /// export or views always gather all, since a lit mesh is seen from
+    /// anywhere.
     pub gather_unseen: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): split
     /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
@@ -109,6 +115,7 @@ impl Default for Job {
             scene: String::new(),
             output: None,
             export: None,
+            views: None,
             device: DeviceOptions::default(),
             max_edge: None,
             mesher: Mesher::Uniform,
@@ -147,6 +154,15 @@ pub struct CameraOverride {
     pub look_at: Option<glam::Vec3>,
     pub up: Option<glam::Vec3>,
     pub fov_y_deg: Option<f32>,
+}
+
+impl Job {
+    /// Whether the run's product is the lit mesh itself, seen from
+    /// anywhere: exported or drawn from a views file. Its vertices are then
+    /// all gathered, and the main image shows the mesh too.
+    pub fn wants_lit_mesh(&self) -> bool {
+        self.export.is_some() || self.views.is_some()
+    }
 }
 
 impl CameraOverride {

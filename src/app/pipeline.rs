@@ -11,7 +11,8 @@ use std::time::Instant;
 use serde_json::{json, Value};
 
 use super::{
-    check_output_path, run_estimate, GatherFacts, Job, Report, RunEstimate, StageLog, Update,
+    check_output_path, load_views, run_estimate, GatherFacts, Job, Report, RunEstimate, StageLog,
+    Update, View,
     IMAGE_EXTENSIONS, MESH_EXTENSIONS,
 };
 use crate::error::{Error, Result};
@@ -57,7 +58,7 @@ pub(super) fn gathers_at_pixels(job: &Job, scene: &Scene) -> bool {
         && job.adaptive == 0
         && job
             .shade
-            .at_pixels(scene, job.export.is_some() || job.wireframe)
+            .at_pixels(scene, job.wants_lit_mesh() || job.wireframe)
 }
 
 /// The display mesh the job asks for.
@@ -116,6 +117,10 @@ pub fn run_scene(
     if let Some(export) = &job.export {
         check_output_path(export, MESH_EXTENSIONS)?;
     }
+    let views = match &job.views {
+        Some(path) => load_views(path, &output)?,
+        None => Vec::new(),
+    };
     let camera = job.camera.apply(default_camera(&scene));
     log.wall[0].1 += t.elapsed().as_secs_f64();
     if job.adaptive > 0 && job.mesher == Mesher::Uniform {
@@ -215,6 +220,23 @@ pub fn run_scene(
         || write_stage(job, &scene, &image, &output, shown_mesh, &gathered.shown),
         |_| json!({ "image": output.display().to_string() }),
     )?;
+    let views = clock.time(
+        "views",
+        || {
+            views_stage(
+                job,
+                &scene,
+                &device,
+                shown_mesh,
+                &gathered.shown,
+                &views,
+                &camera,
+                exposure,
+                &mut gpu_times,
+            )
+        },
+        |v| json!({ "views": v.len() }),
+    )?;
     device.check_validation()?;
 
     let log = clock.log;
@@ -240,6 +262,7 @@ pub fn run_scene(
         ambient,
         output,
         export: job.export.clone(),
+        views,
         warnings,
         peak_memory: log.peak,
         wall: log.wall,
@@ -461,7 +484,7 @@ fn display_stage(
         .memory
         .with_display(d.mesh.elements.len() as u64)
         .check(None)?;
-    if !job.gather_unseen && job.export.is_none() {
+    if !job.gather_unseen && !job.wants_lit_mesh() {
         d.shown = Some(seen_elements(device, scene, &d.mesh, camera, job.size)?);
     }
     clock.end(
@@ -675,4 +698,43 @@ fn write_stage(
         export_lit_mesh(export, scene, shown_mesh, shown, exposure)?;
     }
     Ok(exposure)
+}
+
+/// Draws the lit mesh from every view at the main image's exposure and
+/// writes each image; returns each output with its draw time in seconds
+/// (raster and readback; the write excluded).
+#[allow(clippy::too_many_arguments)]
+fn views_stage(
+    job: &Job,
+    scene: &Scene,
+    device: &Arc<Device>,
+    shown_mesh: &Mesh,
+    shown: &[[f32; 3]],
+    views: &[View],
+    camera: &Camera,
+    exposure: f32,
+    gpu_times: &mut StageTimes,
+) -> Result<Vec<(PathBuf, f64)>> {
+    if views.is_empty() {
+        return Ok(Vec::new());
+    }
+    let radiance = crate::render::radiance_of(shown.to_vec());
+    let mut written = Vec::with_capacity(views.len());
+    for view in views {
+        let t = Instant::now();
+        let image = render_image(
+            device,
+            scene,
+            shown_mesh,
+            &radiance,
+            &view.camera.apply(*camera),
+            job.size,
+            job.wireframe,
+            gpu_times,
+        )?;
+        let seconds = t.elapsed().as_secs_f64();
+        save_image(&image, &view.output, Some(exposure))?;
+        written.push((view.output.clone(), seconds));
+    }
+    Ok(written)
 }

@@ -127,6 +127,13 @@ pub(crate) struct RenderArgs {
     /// image's exposure, and linear radiosity.
     #[arg(long, value_name = "FILE")]
     pub(crate) export: Option<PathBuf>,
+    /// Also draw the lit mesh from every camera in a JSON file, one image
+    /// each, after one solve: {"views": [{"eye": [x,y,z], "look_at":
+    /// [x,y,z], "up": [x,y,z], "fov": degrees, "output": "v1.png"}, ...]}.
+    /// Missing fields take the main camera's; outputs default to
+    /// OUTPUT-viewN.png. Implies --shade mesh.
+    #[arg(long, value_name = "FILE.json")]
+    pub(crate) views: Option<PathBuf>,
     /// Image size [default: 800x800].
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub(crate) size: Option<(u32, u32)>,

@@ -232,6 +232,16 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     if let Some(e) = &r.export {
         println!("  wrote     {}", e.display());
     }
+    if let Some((first, _)) = r.views.first() {
+        let mut seconds: Vec<f64> = r.views.iter().map(|&(_, s)| s).collect();
+        seconds.sort_by(f64::total_cmp);
+        println!(
+            "  wrote     {} views ({} ...), {:.1} ms a view (median, drawn from the lit mesh)",
+            r.views.len(),
+            first.display(),
+            seconds[seconds.len() / 2] * 1e3
+        );
+    }
 }
 
 pub(crate) fn print_mesh_report(report: &MeshReport) {

@@ -30,4 +30,5 @@ mod smooth;
 mod stages;
 mod textures;
 mod trace;
+mod views;
 mod visibility;
