@@ -12,8 +12,11 @@ use crate::error::{Error, Result};
 use crate::gather::pixels::Shade;
 use crate::gather::VertexGather;
 use crate::gpu::{Device, DeviceOptions};
-use crate::mesh::build::Mesher;
-use crate::scene::{self, Camera};
+use crate::mesh::build::{MeshSettings, Mesher};
+use crate::mesh::discontinuity::ShadowDetail;
+use crate::mesh::display::DisplayRequest;
+use crate::mesh;
+use crate::scene::{self, Camera, Scene};
 use crate::solve::{Progress, SolveSettings};
 use crate::trace::{cat, span_since};
 
@@ -23,10 +26,10 @@ mod report;
 mod tuning;
 mod views;
 pub use memory::{peak_resident_bytes, run_estimate, RunEstimate, StageLog};
-pub use pipeline::{mesh_settings, run_scene};
+pub use pipeline::run_scene;
 pub use report::{write_report, GatherFacts, Report};
 pub use tuning::{tune, TUNING};
-pub use views::{load_views, parse_views, View};
+pub use views::load_views;
 
 /// Everything `vkrad SCENE` can be asked to do.
 #[derive(Debug, Clone)]
@@ -148,7 +151,7 @@ impl Default for Job {
 
 /// Camera fields given on the command line; the rest come from the scene's
 /// own camera or the automatic framing.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct CameraOverride {
     pub eye: Option<glam::Vec3>,
     pub look_at: Option<glam::Vec3>,
@@ -162,6 +165,37 @@ impl Job {
     /// all gathered, and the main image shows the mesh too.
     pub fn wants_lit_mesh(&self) -> bool {
         self.export.is_some() || self.views.is_some()
+    }
+
+    /// The mesh settings of the solve on `scene`.
+    pub fn mesh_settings(&self, scene: &Scene) -> MeshSettings {
+        MeshSettings {
+            mesher: self.mesher,
+            max_edge: self
+                .max_edge
+                .unwrap_or_else(|| mesh::default_max_edge(scene)),
+            dm_res: self.dm_res,
+            detail: ShadowDetail::Full,
+        }
+    }
+
+    /// Whether the image is gathered at its pixels: only after a final
+    /// gather, and not with `adaptive` (which shows its own mesh).
+    pub(crate) fn gathers_at_pixels(&self, scene: &Scene) -> bool {
+        self.final_gather.is_some()
+            && self.adaptive == 0
+            && self
+                .shade
+                .at_pixels(scene, self.wants_lit_mesh() || self.wireframe)
+    }
+
+    /// The display mesh asked for.
+    pub(crate) fn display_request(&self) -> DisplayRequest {
+        DisplayRequest {
+            edge: self.display_edge,
+            mesher: self.display_mesher,
+            check: self.check_mesh,
+        }
     }
 }
 

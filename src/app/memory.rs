@@ -13,7 +13,6 @@
 //! (`python3 bench/memory.py` checks the peak against the estimate on
 //! every scene of the corpus) and rounded up.
 
-use super::pipeline::{display_request, gathers_at_pixels, mesh_settings};
 use super::Job;
 use crate::error::{Error, Result};
 use crate::gather::pixels::silhouettes_refined;
@@ -291,11 +290,11 @@ impl RunEstimate {
 /// What the whole job will hold at its peak, before any of it is built.
 pub fn run_estimate(job: &Job, scene: &Scene) -> RunEstimate {
     let shape = RunShape {
-        mesh: mesh_settings(job, scene),
-        gather: if gathers_at_pixels(job, scene) {
+        mesh: job.mesh_settings(scene),
+        gather: if job.gathers_at_pixels(scene) {
             Some(GatherAt::Pixels)
         } else if job.final_gather.is_some() && job.adaptive == 0 {
-            Some(GatherAt::Vertices(display_request(job)))
+            Some(GatherAt::Vertices(job.display_request()))
         } else {
             None
         },

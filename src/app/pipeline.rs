@@ -10,10 +10,10 @@ use std::time::Instant;
 
 use serde_json::{json, Value};
 
+use super::views::draw_views;
 use super::{
     check_output_path, load_views, run_estimate, GatherFacts, Job, Report, RunEstimate, StageLog,
-    Update, View,
-    IMAGE_EXTENSIONS, MESH_EXTENSIONS,
+    Update, IMAGE_EXTENSIONS, MESH_EXTENSIONS,
 };
 use crate::error::{Error, Result};
 use crate::formfactor::gather::GatherRays;
@@ -21,11 +21,10 @@ use crate::gather::display::{shade_display, Shaded};
 use crate::gather::pixels::PixelPoints;
 use crate::gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::gpu::{Device, StageTimes};
-use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
-use crate::mesh::discontinuity::ShadowDetail;
-use crate::mesh::display::{display_mesh, DisplayMesh, DisplayRequest};
+use crate::mesh::build::{check_mesh, MeshBuilder, Mesher};
+use crate::mesh::display::{display_mesh, DisplayMesh};
 use crate::mesh::progress::MeshMeter;
-use crate::mesh::{self, Mesh};
+use crate::mesh::Mesh;
 use crate::output::image_io::{save_image, HdrImage};
 use crate::output::tonemap::auto_exposure;
 use crate::render::{default_camera, export_lit_mesh, render_image, seen_elements};
@@ -38,37 +37,6 @@ use crate::trace::{cat, span_since, Trace};
 
 /// What the stages report as they go: `false` asks them to stop.
 type OnUpdate<'a> = dyn FnMut(&Update) -> bool + 'a;
-
-/// The mesh settings a job asks for on `scene`.
-pub fn mesh_settings(job: &Job, scene: &Scene) -> MeshSettings {
-    MeshSettings {
-        mesher: job.mesher,
-        max_edge: job
-            .max_edge
-            .unwrap_or_else(|| mesh::default_max_edge(scene)),
-        dm_res: job.dm_res,
-        detail: ShadowDetail::Full,
-    }
-}
-
-/// Whether `job` gathers its image at the pixels: only after a final
-/// gather, and not with `adaptive` (which shows its own mesh).
-pub(super) fn gathers_at_pixels(job: &Job, scene: &Scene) -> bool {
-    job.final_gather.is_some()
-        && job.adaptive == 0
-        && job
-            .shade
-            .at_pixels(scene, job.wants_lit_mesh() || job.wireframe)
-}
-
-/// The display mesh the job asks for.
-pub(super) fn display_request(job: &Job) -> DisplayRequest {
-    DisplayRequest {
-        edge: job.display_edge,
-        mesher: job.display_mesher,
-        check: job.check_mesh,
-    }
-}
 
 /// Each stage's wall time, peak memory and trace span.
 struct StageClock {
@@ -223,7 +191,7 @@ pub fn run_scene(
     let views = clock.time(
         "views",
         || {
-            views_stage(
+            draw_views(
                 job,
                 &scene,
                 &device,
@@ -304,7 +272,7 @@ fn mesh_stage<'s>(
     device: &'s Arc<Device>,
     on_update: &mut OnUpdate,
 ) -> Result<Meshed<'s>> {
-    let settings = mesh_settings(job, scene);
+    let settings = job.mesh_settings(scene);
     let mut builder = MeshBuilder::new(device, scene, settings)?;
     // Refuse what would not fit before any of it is built (the builder
     // has refused a mesh that alone would not).
@@ -458,10 +426,10 @@ fn display_stage(
         done: 0,
         total: 0,
     });
-    if gathers_at_pixels(job, scene) {
+    if job.gathers_at_pixels(scene) {
         return Ok(DisplayOutcome::None);
     }
-    let request = display_request(job);
+    let request = job.display_request();
     let mut tick = |done: usize, total: usize| {
         on_update(&Update::Stage {
             stage: "display mesh",
@@ -569,7 +537,7 @@ fn gather_stage(
         gathered.shown = solver_values();
         return gathered;
     };
-    let at_pixels = gathers_at_pixels(job, scene);
+    let at_pixels = job.gathers_at_pixels(scene);
     // Gathered from the elements as shown: the ambient term joins their
     // light before it is gathered.
     let mut sources = solution.radiosity.clone();
@@ -700,41 +668,3 @@ fn write_stage(
     Ok(exposure)
 }
 
-/// Draws the lit mesh from every view at the main image's exposure and
-/// writes each image; returns each output with its draw time in seconds
-/// (raster and readback; the write excluded).
-#[allow(clippy::too_many_arguments)]
-fn views_stage(
-    job: &Job,
-    scene: &Scene,
-    device: &Arc<Device>,
-    shown_mesh: &Mesh,
-    shown: &[[f32; 3]],
-    views: &[View],
-    camera: &Camera,
-    exposure: f32,
-    gpu_times: &mut StageTimes,
-) -> Result<Vec<(PathBuf, f64)>> {
-    if views.is_empty() {
-        return Ok(Vec::new());
-    }
-    let radiance = crate::render::radiance_of(shown.to_vec());
-    let mut written = Vec::with_capacity(views.len());
-    for view in views {
-        let t = Instant::now();
-        let image = render_image(
-            device,
-            scene,
-            shown_mesh,
-            &radiance,
-            &view.camera.apply(*camera),
-            job.size,
-            job.wireframe,
-            gpu_times,
-        )?;
-        let seconds = t.elapsed().as_secs_f64();
-        save_image(&image, &view.output, Some(exposure))?;
-        written.push((view.output.clone(), seconds));
-    }
-    Ok(written)
-}

@@ -14,11 +14,18 @@
 //! added (N counts from 1).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
 
 use serde_json::Value;
 
-use super::{check_output_path, CameraOverride, IMAGE_EXTENSIONS};
+use super::{check_output_path, CameraOverride, Job, IMAGE_EXTENSIONS};
 use crate::error::{Error, Result};
+use crate::gpu::{Device, StageTimes};
+use crate::mesh::Mesh;
+use crate::output::image_io::save_image;
+use crate::render::render_image;
+use crate::scene::{Camera, Scene};
 
 /// One camera of a views file and the image it writes.
 #[derive(Debug, Clone, PartialEq)]
@@ -121,6 +128,45 @@ fn default_output(main_output: &Path, n: usize) -> PathBuf {
         .map(|e| e.to_string_lossy().into_owned())
         .unwrap_or_else(|| "png".into());
     main_output.with_file_name(format!("{stem}-view{n}.{ext}"))
+}
+
+/// Draws the lit mesh from every view at the main image's exposure and
+/// writes each image; returns each output with its draw time in seconds
+/// (raster and readback; the write excluded).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn draw_views(
+    job: &Job,
+    scene: &Scene,
+    device: &Arc<Device>,
+    shown_mesh: &Mesh,
+    shown: &[[f32; 3]],
+    views: &[View],
+    camera: &Camera,
+    exposure: f32,
+    gpu_times: &mut StageTimes,
+) -> Result<Vec<(PathBuf, f64)>> {
+    if views.is_empty() {
+        return Ok(Vec::new());
+    }
+    let radiance = crate::render::radiance_of(shown.to_vec());
+    let mut written = Vec::with_capacity(views.len());
+    for view in views {
+        let t = Instant::now();
+        let image = render_image(
+            device,
+            scene,
+            shown_mesh,
+            &radiance,
+            &view.camera.apply(*camera),
+            job.size,
+            job.wireframe,
+            gpu_times,
+        )?;
+        let seconds = t.elapsed().as_secs_f64();
+        save_image(&image, &view.output, Some(exposure))?;
+        written.push((view.output.clone(), seconds));
+    }
+    Ok(written)
 }
 
 #[cfg(test)]

@@ -315,7 +315,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
         tune(&mut job, assignment)?;
     }
     let device = Device::new(&args.gpu.options())?;
-    let settings = crate::app::mesh_settings(&job, &scene);
+    let settings = job.mesh_settings(&scene);
     // A large discontinuity mesh takes minutes: a progress line, and
     // Ctrl-C stops it (nothing is written).
     install_interrupt_handler();

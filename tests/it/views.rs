@@ -7,7 +7,10 @@ use vkrad::output::image_io::HdrImage;
 use crate::common;
 
 fn rgb8(path: &std::path::Path) -> Vec<u8> {
-    image::open(path).expect("a written view").to_rgb8().into_raw()
+    image::open(path)
+        .expect("a written view")
+        .to_rgb8()
+        .into_raw()
 }
 
 fn mean(image: &HdrImage) -> f32 {
@@ -48,7 +51,11 @@ fn every_view_is_drawn_from_the_one_solution() {
         ]
     );
     let main = rgb8(&dir.join("main.png"));
-    assert_eq!(rgb8(&written[0]), main, "the main camera's view is the main image");
+    assert_eq!(
+        rgb8(&written[0]),
+        main,
+        "the main camera's view is the main image"
+    );
     for other in &written[1..] {
         let view = rgb8(other);
         assert_eq!(view.len(), main.len());
@@ -65,7 +72,10 @@ fn a_bad_views_file_stops_the_run_before_any_work() {
     let mut job = Job::new("simple");
     job.output = Some(dir.join("main.png"));
     job.views = Some(views);
-    let error = run(&job, None, |_| true).unwrap_err().to_string();
+    let Err(error) = run(&job, None, |_| true) else {
+        panic!("a bad views file must stop the run");
+    };
+    let error = error.to_string();
     assert!(
         error.contains("cams.json: view 1: \"eye\" must be three finite numbers"),
         "{error}"
