@@ -31,3 +31,4 @@ mod stages;
 mod textures;
 mod trace;
 mod visibility;
+mod watertight;
