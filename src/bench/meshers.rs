@@ -149,6 +149,10 @@ pub fn run_mesher_bench(
 ) -> Result<MesherReport> {
     std::fs::create_dir_all(out_dir).map_err(|e| Error::io(out_dir, e))?;
     let scene = crate::scene::load_scene_arg(scene_arg)?;
+    // Said once here; the runs below load the scene again, silently.
+    for w in &scene.warnings {
+        progress(&format!("warning: {w}"));
+    }
     let extent = scene.extent();
     progress(&format!("{scene_arg}: gathering the reference image"));
     let t = Instant::now();

@@ -292,6 +292,9 @@ pub fn run_bench_on(
         .iter()
         .map(|arg| load_bench_scene(arg))
         .collect::<Result<_>>()?;
+    for w in loaded.iter().flat_map(|s| &s.warnings) {
+        progress(&format!("warning: {w}"));
+    }
 
     let mut points = Vec::new();
     let mut references = Vec::new();

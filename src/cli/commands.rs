@@ -17,7 +17,7 @@ use super::args::{
 };
 use super::print::{
     describe_run_estimate, print_bench, print_form_factors, print_mesh_report, print_mesher_bench,
-    print_summary, FormFactorOutput,
+    print_scene_warnings, print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
 use crate::app::{run_scene, tune, CameraOverride, Job, TUNING};
@@ -303,9 +303,7 @@ pub(crate) fn bench(args: BenchArgs) -> Result<()> {
 pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
     crate::app::check_output_path(&args.output, &["obj", "ply"])?;
     let scene = crate::scene::load_scene_arg(&args.scene)?;
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
+    print_scene_warnings(&scene);
     let mut job = Job::new(args.scene.clone());
     if let Some(mesher) = args.mesher {
         tune(&mut job, &format!("mesh={}", mesher.name()))?;
@@ -358,6 +356,7 @@ pub(crate) fn mesh_only(args: MeshOnlyArgs) -> Result<()> {
 
 pub(crate) fn formfactors(args: FormFactorArgs) -> Result<()> {
     let scene = crate::scene::load_scene_arg(&args.scene)?;
+    print_scene_warnings(&scene);
     let mut job = Job::new(args.scene.clone());
     if let Some(ff) = args.ff {
         job.solve.method = ff.method();

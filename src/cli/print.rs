@@ -34,6 +34,15 @@ pub(crate) fn describe_run_estimate(e: &RunEstimate) -> String {
     )
 }
 
+/// The loader's warnings (repairs, and materials treated as opaque and
+/// diffuse), to stderr before the work: the commands that print no run
+/// summary say them here, once, so a material gets the same word everywhere.
+pub(crate) fn print_scene_warnings(scene: &Scene) {
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
 pub(crate) fn print_summary(r: &Report, profile: bool) {
     let s = &r.solution;
     let emitters = r

@@ -532,3 +532,59 @@ fn no_final_gather_on_many_patches_warns_how_to_bound_the_solve() {
         assert_eq!(said, warns, "{scene}:\n{}", stderr(&out));
     }
 }
+
+/// Issue 45: an emitter written as glass (`illum 4`, as the public dining
+/// room's `AreaLight`) was reported to stop `vkrad mesh --mesh
+/// discontinuity` while the render only warned. Every command must warn
+/// once, treat it as diffuse, and finish.
+#[test]
+fn transparent_emitter_is_diffuse_with_one_warning_in_every_command() {
+    let dir = temp_dir("illum4");
+    let mtl = "newmtl white\nKd 0.5 0.5 0.5\n\
+               newmtl AreaLight\nillum 4\nKd 1 1 1\nKa 0 0 0\nTf 1 1 1\nNi 1\nKs 0.5 0.5 0.5\nKe 5 5 5\n";
+    // The floor, a blocker and the light: the discontinuity mesher has a
+    // shadow to mesh.
+    let obj = "mtllib scene.mtl\n\
+               v 0 0 0\nv 0 0 1\nv 1 0 1\nv 1 0 0\n\
+               v 0.3 0.5 0.3\nv 0.3 0.5 0.7\nv 0.7 0.5 0.7\nv 0.7 0.5 0.3\n\
+               v 0.4 1 0.4\nv 0.6 1 0.4\nv 0.6 1 0.6\nv 0.4 1 0.6\n\
+               usemtl white\nf 1 2 3 4\nf 5 6 7 8\nusemtl AreaLight\nf 9 10 11 12\n";
+    std::fs::write(dir.join("scene.obj"), obj).unwrap();
+    std::fs::write(dir.join("scene.mtl"), mtl).unwrap();
+    let warning = "material \"AreaLight\" is transparent (illum 4";
+    let runs: [&[&str]; 3] = [
+        &[
+            "mesh",
+            "scene.obj",
+            "--mesh",
+            "discontinuity",
+            "-o",
+            "out.ply",
+            "--validate",
+        ],
+        &["formfactors", "scene.obj", "--validate"],
+        &[
+            "scene.obj",
+            "-o",
+            "out.png",
+            "--size",
+            "16x12",
+            "--tune",
+            "hemicube_res=16",
+            "--validate",
+        ],
+    ];
+    for args in runs {
+        let out = vkrad(args, &dir);
+        let all = format!("{}{}", String::from_utf8_lossy(&out.stdout), stderr(&out));
+        assert!(out.status.success(), "{args:?} failed:\n{all}");
+        assert_eq!(
+            all.matches(warning).count(),
+            1,
+            "{args:?}: one warning:\n{all}"
+        );
+        assert!(all.contains("opaque and diffuse"), "{args:?}:\n{all}");
+    }
+    assert!(dir.join("out.ply").exists() && dir.join("out.png").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

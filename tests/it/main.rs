@@ -32,3 +32,4 @@ mod textures;
 mod trace;
 mod views;
 mod visibility;
+mod watertight;
