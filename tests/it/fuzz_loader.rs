@@ -353,6 +353,147 @@ proptest! {
     }
 }
 
+// ---- textures ---------------------------------------------------------------
+
+/// Small valid images in every format the loader reads, 5 x 3 texels.
+fn seed_images() -> Vec<(&'static str, Vec<u8>)> {
+    let img = image::RgbImage::from_fn(5, 3, |x, y| image::Rgb([x as u8 * 50, y as u8 * 80, 7]));
+    let mut out = Vec::new();
+    for (ext, format) in [
+        ("png", image::ImageFormat::Png),
+        ("jpg", image::ImageFormat::Jpeg),
+        ("bmp", image::ImageFormat::Bmp),
+        ("tga", image::ImageFormat::Tga),
+    ] {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut bytes, format).expect("encodes");
+        out.push((ext, bytes.into_inner()));
+    }
+    let rgb32f = image::DynamicImage::ImageRgb8(img).into_rgb32f();
+    let mut hdr = std::io::Cursor::new(Vec::new());
+    rgb32f
+        .write_to(&mut hdr, image::ImageFormat::Hdr)
+        .expect("encodes");
+    out.push(("hdr", hdr.into_inner()));
+    out
+}
+
+/// A change to an image file's bytes.
+#[derive(Debug, Clone)]
+enum ByteEdit {
+    /// Flip bits of the byte at (index mod length).
+    Flip(usize, u8),
+    /// Write a 32-bit value (little or big endian) at (index mod length),
+    /// e.g. over a width, a height or a chunk length.
+    Word(usize, u32, bool),
+    /// Cut the file at (index mod length).
+    Truncate(usize),
+    /// Insert bytes at (index mod length).
+    Insert(usize, Vec<u8>),
+}
+
+fn byte_edit() -> impl Strategy<Value = ByteEdit> {
+    let extreme = prop::sample::select(vec![
+        0u32,
+        1,
+        0x7fff,
+        0xffff,
+        0x10000,
+        0x7fff_ffff,
+        u32::MAX,
+    ]);
+    prop_oneof![
+        4 => (any::<usize>(), 1u8..=255).prop_map(|(i, b)| ByteEdit::Flip(i, b)),
+        3 => (any::<usize>(), prop_oneof![extreme, any::<u32>()], any::<bool>())
+            .prop_map(|(i, w, le)| ByteEdit::Word(i, w, le)),
+        1 => any::<usize>().prop_map(ByteEdit::Truncate),
+        1 => (any::<usize>(), prop::collection::vec(any::<u8>(), 1..16))
+            .prop_map(|(i, b)| ByteEdit::Insert(i, b)),
+    ]
+}
+
+fn edit_bytes(mut bytes: Vec<u8>, edits: &[ByteEdit]) -> Vec<u8> {
+    for e in edits {
+        let n = bytes.len().max(1);
+        match e {
+            ByteEdit::Flip(i, b) => {
+                if let Some(x) = bytes.get_mut(i % n) {
+                    *x ^= b;
+                }
+            }
+            ByteEdit::Word(i, w, le) => {
+                let at = i % n;
+                let word = if *le {
+                    w.to_le_bytes()
+                } else {
+                    w.to_be_bytes()
+                };
+                for (k, b) in word.into_iter().enumerate() {
+                    if let Some(x) = bytes.get_mut(at + k) {
+                        *x = b;
+                    }
+                }
+            }
+            ByteEdit::Truncate(i) => bytes.truncate(i % n),
+            ByteEdit::Insert(i, more) => {
+                let at = (i % n).min(bytes.len());
+                bytes.splice(at..at, more.iter().copied());
+            }
+        }
+    }
+    bytes
+}
+
+/// A folder for the texture cases, one per test thread.
+fn texture_dir() -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("vkrad-fuzz-textures-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("a temporary folder");
+    dir
+}
+
+proptest! {
+    #![proptest_config(config())]
+
+    /// Damaged image files through `Texture::load`, then through a whole
+    /// scene whose material names them: never a panic; a texture that
+    /// loads has texels; one that does not is a warning naming the file,
+    /// and the scene still loads with `Kd` alone.
+    #[test]
+    fn damaged_textures_never_panic(
+        which in 0usize..5,
+        edits in prop::collection::vec(byte_edit(), 1..5),
+    ) {
+        let (ext, bytes) = seed_images().swap_remove(which);
+        let bytes = edit_bytes(bytes, &edits);
+        let dir = texture_dir();
+        let file = dir.join(format!("t.{ext}"));
+        std::fs::write(&file, &bytes).unwrap();
+        if let Ok(t) = vkrad::scene::Texture::load(file.clone()) {
+            prop_assert!(t.sample(glam::Vec2::new(0.3, 0.6)).is_finite());
+        }
+        let obj = dir.join("scene.obj");
+        std::fs::write(&obj, format!(
+            "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl tex\nf 1/1 4/4 3/3 2/2\nv 0 1 0\nv 0 1 1\nv 1 1 1\nv 1 1 0\nusemtl light\nf 5 8 7 6\n"
+        )).unwrap();
+        std::fs::write(dir.join("scene.mtl"), format!(
+            "newmtl tex\nKd 0.5 0.5 0.5\nmap_Kd t.{ext}\nnewmtl light\nKd 0 0 0\nKe 1 1 1\n"
+        )).unwrap();
+        match vkrad::scene::load(&obj) {
+            Ok(scene) => {
+                check_scene(&scene);
+                if scene.textures.is_empty() {
+                    prop_assert!(
+                        scene.warnings.iter().any(|w| w.contains("cannot read texture") && w.contains(&format!("t.{ext}"))),
+                        "{:?}", scene.warnings
+                    );
+                }
+            }
+            Err(e) => prop_assert!(false, "a bad texture must not fail the scene: {e}"),
+        }
+    }
+}
+
 // ---- regressions: failures found by the properties above ------------------
 
 /// The unmodified built-ins pass the same checks.
