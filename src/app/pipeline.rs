@@ -20,9 +20,9 @@ use crate::gather::display::{shade_display, Shaded};
 use crate::gather::pixels::PixelPoints;
 use crate::gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::gpu::{Device, StageTimes};
-use crate::mesh::build::{check_mesh, MeshBuilder, MeshSettings, Mesher};
+use crate::mesh::build::{check_mesh, host_memory_room, MeshBuilder, MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
-use crate::mesh::display::{display_mesh, DisplayMesh, DisplayRequest};
+use crate::mesh::display::{display_mesh, DisplayBudget, DisplayMesh, DisplayRequest};
 use crate::mesh::progress::MeshMeter;
 use crate::mesh::{self, Mesh};
 use crate::output::image_io::{save_image, HdrImage};
@@ -447,8 +447,40 @@ fn display_stage(
         })
     };
     let mut meter = MeshMeter::new(&mut tick);
+    // What memory leaves the display mesh, now that the solve holds its
+    // share (the estimate counts the rest of the run).
+    let estimate = solved.memory.clone();
+    // Read before the build: after it, the room no longer holds the mesh.
+    let room = host_memory_room();
+    let read_budget = || {
+        let (bytes, binding) = host_memory_room()?;
+        Some(DisplayBudget {
+            max_elements: estimate.display_budget(bytes),
+            limit: format!(
+                "{:.2} GB of {}",
+                bytes as f64 / (1u64 << 30) as f64,
+                binding.describe()
+            ),
+        })
+    };
+    let budget = read_budget().map(|_| {
+        move || {
+            read_budget().unwrap_or(DisplayBudget {
+                max_elements: u64::MAX,
+                limit: "memory".into(),
+            })
+        }
+    });
     let builder = &mut solved.builder;
-    let display = match display_mesh(&request, scene, device, builder, warnings, &mut meter) {
+    let display = match display_mesh(
+        &request,
+        scene,
+        device,
+        builder,
+        budget.as_ref().map(|b| b as &dyn Fn() -> DisplayBudget),
+        warnings,
+        &mut meter,
+    ) {
         Err(Error::Interrupted(_)) => return Ok(DisplayOutcome::Interrupted),
         other => other?,
     };
@@ -460,7 +492,7 @@ fn display_stage(
     solved
         .memory
         .with_display(d.mesh.elements.len() as u64)
-        .check(None)?;
+        .check_room(room)?;
     if !job.gather_unseen && job.export.is_none() {
         d.shown = Some(seen_elements(device, scene, &d.mesh, camera, job.size)?);
     }
