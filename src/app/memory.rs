@@ -20,7 +20,7 @@ use crate::gather::pixels::silhouettes_refined;
 use crate::gather::LINKS_BUDGET;
 use crate::gpu::host::Binding;
 use crate::mesh::build::{host_memory_room, CostEstimate, MeshSettings, Mesher};
-use crate::mesh::display::DisplayRequest;
+use crate::mesh::display::{DisplayBudget, DisplayRequest};
 use crate::mesh::element_count;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
@@ -236,6 +236,25 @@ impl RunEstimate {
     pub fn display_budget(&self, available: u64) -> u64 {
         let rest = self.with_display(0).total_bytes();
         available.saturating_sub(rest) / DISPLAY_BYTES_PER_ELEMENT
+    }
+
+    /// What memory leaves the display mesh now (the estimate counts the
+    /// rest of the run); no limit known: no cap.
+    pub fn display_budget_now(&self) -> DisplayBudget {
+        match host_memory_room() {
+            Some((bytes, binding)) => DisplayBudget {
+                max_elements: self.display_budget(bytes),
+                limit: format!(
+                    "{:.2} GB of {}",
+                    bytes as f64 / (1u64 << 30) as f64,
+                    binding.describe()
+                ),
+            },
+            None => DisplayBudget {
+                max_elements: u64::MAX,
+                limit: "memory".into(),
+            },
+        }
     }
 
     /// The estimate once the display mesh is built with `elements`.

@@ -447,30 +447,10 @@ fn display_stage(
         })
     };
     let mut meter = MeshMeter::new(&mut tick);
-    // What memory leaves the display mesh, now that the solve holds its
-    // share (the estimate counts the rest of the run).
-    let estimate = solved.memory.clone();
     // Read before the build: after it, the room no longer holds the mesh.
     let room = host_memory_room();
-    let read_budget = || {
-        let (bytes, binding) = host_memory_room()?;
-        Some(DisplayBudget {
-            max_elements: estimate.display_budget(bytes),
-            limit: format!(
-                "{:.2} GB of {}",
-                bytes as f64 / (1u64 << 30) as f64,
-                binding.describe()
-            ),
-        })
-    };
-    let budget = read_budget().map(|_| {
-        move || {
-            read_budget().unwrap_or(DisplayBudget {
-                max_elements: u64::MAX,
-                limit: "memory".into(),
-            })
-        }
-    });
+    let estimate = solved.memory.clone();
+    let budget = room.map(|_| move || estimate.display_budget_now());
     let builder = &mut solved.builder;
     let display = match display_mesh(
         &request,
