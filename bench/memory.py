@@ -12,6 +12,7 @@ peak is above its estimate (the estimate is meant as an upper bound).
     python3 bench/memory.py                    # the whole corpus (about 10 min on 2 cores)
     python3 bench/memory.py cornell rfield     # some of it, by name
     python3 bench/memory.py --large            # add the 95k to 204k-polygon scenes
+    python3 bench/memory.py --interiors        # add the dining halls (10k to 200k faces, 1 to 400 lights)
 
 The corpus: the built-in scenes, scenes/*.obj, the public scenes under
 ../shared/scenes (when present), and generated letter fields and curved
@@ -41,7 +42,7 @@ ROOT = os.path.dirname(HERE)
 SHARED = os.path.join(os.path.dirname(ROOT), "shared", "scenes")
 
 
-def corpus(scaling_dir, large):
+def corpus(scaling_dir, large, interiors_dir=None):
     scenes = [
         ("cornell", "cornell"),
         ("simple", "simple"),
@@ -63,6 +64,9 @@ def corpus(scaling_dir, large):
     if large:
         for name in ("rfield-700", "rfield-1500", "surfaces-100k", "surfaces-200k"):
             scenes.append((name.replace("rfield-", "field-"), os.path.join(scaling_dir, name + ".obj")))
+    if interiors_dir:
+        for name in ("interior-10k-1", "interior-10k-16", "interior-50k-64", "interior-200k-400"):
+            scenes.append((name, os.path.join(interiors_dir, name + ".obj")))
     return scenes
 
 
@@ -116,6 +120,7 @@ def main():
     ap.add_argument("names", nargs="*", help="scenes of the corpus to run (default: all)")
     ap.add_argument("--vkrad", default=os.path.join(ROOT, "target", "release", "vkrad"))
     ap.add_argument("--large", action="store_true", help="add the 95k to 204k-polygon fields and surfaces")
+    ap.add_argument("--interiors", action="store_true", help="add the dining halls of generate_scenes.py --interiors")
     ap.add_argument("--out", default=os.path.join(HERE, "memory.json"))
     a = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="vkrad-memory-") as tmp:
@@ -125,8 +130,16 @@ def main():
             check=True,
             capture_output=True,
         )
+        interiors = None
+        if a.interiors:
+            interiors = os.path.join(tmp, "interiors")
+            subprocess.run(
+                [sys.executable, os.path.join(ROOT, "scenes", "generate_scenes.py"), "--interiors", interiors],
+                check=True,
+                capture_output=True,
+            )
         rows = []
-        for name, scene in corpus(scaling, a.large):
+        for name, scene in corpus(scaling, a.large, interiors):
             if a.names and name not in a.names:
                 continue
             if os.path.sep in scene and not os.path.exists(scene):

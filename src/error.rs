@@ -86,6 +86,12 @@ pub enum Error {
     #[error("the mesh is not sound: {0}")]
     Mesh(String),
 
+    /// The work does not fit in memory: a mesh passed the element budget
+    /// it was built under, or a large allocation failed. Says how much and
+    /// what to change.
+    #[error("{what}\n  hint: {hint}")]
+    OutOfMemory { what: String, hint: String },
+
     /// An output could not be produced.
     #[error("cannot write {}: {what}", path.display())]
     Output { path: PathBuf, what: String },
@@ -132,6 +138,22 @@ impl Error {
             what: what.into(),
             hint: hint.map(str::to_owned),
         }
+    }
+
+    /// An empty vector with room for `n` items, or [`Error::OutOfMemory`]
+    /// naming `what` it was for and `hint` (the setting that makes it
+    /// smaller): the few largest buffers are reserved this way so a late
+    /// failure is a message, not an abort.
+    pub fn try_vec<T>(n: usize, what: &str, hint: &str) -> Result<Vec<T>> {
+        let mut v = Vec::new();
+        v.try_reserve_exact(n).map_err(|_| Error::OutOfMemory {
+            what: format!(
+                "could not allocate {:.2} GB for {what} ({n} items)",
+                (n as f64) * (std::mem::size_of::<T>() as f64) / (1u64 << 30) as f64
+            ),
+            hint: hint.to_string(),
+        })?;
+        Ok(v)
     }
 
     /// Wraps a failed Vulkan call, naming it so the message says what failed.

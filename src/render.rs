@@ -447,7 +447,14 @@ pub fn render_image(
     }
     let view_proj = camera_view_proj(camera, width as f32 / height as f32, scene.extent())?;
     let lit = lit_vertices(scene, mesh, vertex_radiance);
-    let mut triangles = Vec::with_capacity(mesh.triangle_count() * 3);
+    // The largest buffer of a run shaded on a display mesh (its vertices
+    // unshared, 48 bytes each): reserved fallibly, so a late failure is a
+    // message.
+    let mut triangles = Error::try_vec(
+        mesh.triangle_count() * 3,
+        "the render's triangles",
+        "use a larger --tune display_edge, or --shade pixels",
+    )?;
     for e in &mesh.elements {
         for tri in e.triangles() {
             triangles.extend(tri.iter().map(|&v| lit[v as usize]));

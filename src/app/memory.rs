@@ -17,8 +17,9 @@ use super::Job;
 use crate::error::{Error, Result};
 use crate::gather::pixels::silhouettes_refined;
 use crate::gather::LINKS_BUDGET;
-use crate::mesh::build::{host_memory_available, CostEstimate, MeshSettings, Mesher};
-use crate::mesh::display::DisplayRequest;
+use crate::gpu::host::Binding;
+use crate::mesh::build::{host_memory_room, CostEstimate, MeshSettings, Mesher};
+use crate::mesh::display::{DisplayBudget, DisplayRequest};
 use crate::mesh::element_count;
 use crate::render::samples_per_pixel;
 use crate::scene::Scene;
@@ -59,9 +60,10 @@ const PIXEL_GATHER_BYTES_PER_PIXEL: u64 = 512;
 const PIXEL_GATHER_BYTES_PER_REFINED_PIXEL: u64 = 512 + 32 * 70;
 /// Per display element: its build (triangulations, junction repair's
 /// spatial hash), its vertices' gathered values and caches, and the
-/// render's vertex and colour copies (rfield: 477k elements took 93 MB to
-/// build and 145 MB more to render, 500 bytes each).
-const DISPLAY_BYTES_PER_ELEMENT: u64 = 512;
+/// render's copies (unshared triangle vertices on the host and on the
+/// device). Fitted over the corpus and the interiors of
+/// `generate_scenes.py --interiors` (see bench/NOTES.md), rounded up.
+pub(crate) const DISPLAY_BYTES_PER_ELEMENT: u64 = 1280;
 /// A discontinuity display mesh's elements before it is built: at most
 /// this many times the uniform mesh at its edge, plus [`DISPLAY_PER_PATCH`]
 /// per polygon. Its shadow lines depend on what blocks what, which only
@@ -215,14 +217,42 @@ impl RunEstimate {
     }
 
     /// Refuses, before any work, a run that would not fit even with the
-    /// fewest display elements it can have: the bound on a discontinuity
-    /// display mesh is loose (up to 20 times its count on the corpus), so
-    /// it would refuse runs that fit; the run is checked again, on the
+    /// coarsest display it can have, the solve's own mesh: a display mesh
+    /// that does not fit is made coarser (`display_stage`), and the bound
+    /// on a discontinuity one is loose; the run is checked again, on the
     /// real count, once the display mesh is built.
     pub fn check_before_work(&self, available: Option<u64>) -> Result<()> {
         match self.display_floor {
-            Some(floor) => self.with_display(floor).check(available),
+            Some(floor) => self
+                .with_display(floor.min(self.mesh.elements))
+                .check(available),
             None => self.check(available),
+        }
+    }
+
+    /// The most display elements that fit in `available` bytes beside the
+    /// rest of the run.
+    pub fn display_budget(&self, available: u64) -> u64 {
+        let rest = self.with_display(0).total_bytes();
+        available.saturating_sub(rest) / DISPLAY_BYTES_PER_ELEMENT
+    }
+
+    /// What memory leaves the display mesh now (the estimate counts the
+    /// rest of the run); no limit known: no cap.
+    pub fn display_budget_now(&self) -> DisplayBudget {
+        match host_memory_room() {
+            Some((bytes, binding)) => DisplayBudget {
+                max_elements: self.display_budget(bytes),
+                limit: format!(
+                    "{:.2} GB of {}",
+                    bytes as f64 / (1u64 << 30) as f64,
+                    binding.describe()
+                ),
+            },
+            None => DisplayBudget {
+                max_elements: u64::MAX,
+                limit: "memory".into(),
+            },
         }
     }
 
@@ -258,7 +288,17 @@ impl RunEstimate {
     /// system's available memory when `None` is not given), naming the
     /// figure and the setting to change.
     pub fn check(&self, available: Option<u64>) -> Result<()> {
-        let Some(available) = available.or_else(host_memory_available) else {
+        self.check_room(
+            available
+                .map(|a| (a, Binding::Available))
+                .or_else(host_memory_room),
+        )
+    }
+
+    /// [`Self::check`] against a room read earlier (`None`: no limit known),
+    /// as the limit that binds it names it.
+    pub fn check_room(&self, room: Option<(u64, Binding)>) -> Result<()> {
+        let Some((available, binding)) = room else {
             return Ok(());
         };
         let total = self.total_bytes();
@@ -277,13 +317,17 @@ impl RunEstimate {
             "render" => "render a smaller --size",
             _ => "free memory, or use a machine with more",
         };
-        Err(Error::Invalid(format!(
-            "this run would need about {:.2} GB of memory ({} the largest part, {:.2} GB), more than the {:.2} GB available\n  hint: {hint}",
-            gb(total),
-            largest.stage,
-            gb(largest.bytes),
-            gb(available)
-        )))
+        Err(Error::OutOfMemory {
+            what: format!(
+                "this run would need about {:.2} GB of memory ({} the largest part, {:.2} GB), more than the {:.2} GB of {}",
+                gb(total),
+                largest.stage,
+                gb(largest.bytes),
+                gb(available),
+                binding.describe()
+            ),
+            hint: hint.to_string(),
+        })
     }
 }
 

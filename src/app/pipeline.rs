@@ -21,8 +21,8 @@ use crate::gather::display::{shade_display, Shaded};
 use crate::gather::pixels::PixelPoints;
 use crate::gather::{FinalGather, Meter, VertexCache, VertexGather};
 use crate::gpu::{Device, StageTimes};
-use crate::mesh::build::{check_mesh, MeshBuilder, Mesher};
-use crate::mesh::display::{display_mesh, DisplayMesh};
+use crate::mesh::build::{check_mesh, host_memory_room, MeshBuilder, Mesher};
+use crate::mesh::display::{display_mesh, DisplayBudget, DisplayMesh};
 use crate::mesh::progress::MeshMeter;
 use crate::mesh::Mesh;
 use crate::output::image_io::{save_image, HdrImage};
@@ -438,8 +438,20 @@ fn display_stage(
         })
     };
     let mut meter = MeshMeter::new(&mut tick);
+    // Read before the build: after it, the room no longer holds the mesh.
+    let room = host_memory_room();
+    let estimate = solved.memory.clone();
+    let budget = room.map(|_| move || estimate.display_budget_now());
     let builder = &mut solved.builder;
-    let display = match display_mesh(&request, scene, device, builder, warnings, &mut meter) {
+    let display = match display_mesh(
+        &request,
+        scene,
+        device,
+        builder,
+        budget.as_ref().map(|b| b as &dyn Fn() -> DisplayBudget),
+        warnings,
+        &mut meter,
+    ) {
         Err(Error::Interrupted(_)) => return Ok(DisplayOutcome::Interrupted),
         other => other?,
     };
@@ -451,7 +463,7 @@ fn display_stage(
     solved
         .memory
         .with_display(d.mesh.elements.len() as u64)
-        .check(None)?;
+        .check_room(room)?;
     if !job.gather_unseen && !job.wants_lit_mesh() {
         d.shown = Some(seen_elements(device, scene, &d.mesh, camera, job.size)?);
     }

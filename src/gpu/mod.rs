@@ -6,6 +6,7 @@ pub mod commands;
 pub mod context;
 #[cfg(test)]
 mod contracts;
+pub mod host;
 pub mod instrument;
 pub mod item;
 pub mod memory;

@@ -8,6 +8,7 @@ use std::time::{Duration, Instant};
 use glam::Vec3;
 
 use crate::error::{Error, Result};
+use crate::gpu::host::{Binding, HostMemory};
 use crate::gpu::Device;
 use crate::mesh::discontinuity::visibility::{gpu_blockers_metered, BlockerTable};
 use crate::mesh::discontinuity::{
@@ -114,7 +115,7 @@ impl CostEstimate {
     pub fn check(
         &self,
         device_memory: u64,
-        host_available: Option<u64>,
+        host_available: Option<(u64, Binding)>,
         max_edge: f32,
     ) -> Result<()> {
         let gb = |b: u64| b as f64 / (1u64 << 30) as f64;
@@ -127,10 +128,11 @@ impl CostEstimate {
         );
         let why = if self.elements > MAX_ELEMENTS {
             Some(format!("more than vkrad solves ({MAX_ELEMENTS})"))
-        } else if host_available.is_some_and(|a| self.host_bytes > a) {
+        } else if let Some((a, binding)) = host_available.filter(|&(a, _)| self.host_bytes > a) {
             Some(format!(
-                "more than the {:.2} GB of memory available",
-                gb(host_available.unwrap_or(0))
+                "more than the {:.2} GB of {}",
+                gb(a),
+                binding.describe()
             ))
         } else if device_memory > 0 && self.device_bytes > device_memory / 5 * 4 {
             Some(format!("more than the GPU's {:.2} GB", gb(device_memory)))
@@ -138,21 +140,21 @@ impl CostEstimate {
             None
         };
         match why {
-            Some(why) => Err(Error::Invalid(format!(
-                "{what}: {why}\n  hint: use a larger --max-edge (elements grow as 1 / max-edge^2)"
-            ))),
+            Some(why) => Err(Error::OutOfMemory {
+                what: format!("{what}: {why}"),
+                hint: "use a larger --max-edge (elements grow as 1 / max-edge^2)".into(),
+            }),
             None => Ok(()),
         }
     }
 }
 
-/// Host memory available for new work (Linux: `MemAvailable` in
-/// /proc/meminfo); `None` where the system does not say.
-pub fn host_memory_available() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
+/// Host memory this process may still take, and the limit that binds it:
+/// the least of `MemAvailable`, its memory cgroup's room and its
+/// address-space limit's ([`HostMemory`]); `None` where the system says
+/// nothing.
+pub fn host_memory_room() -> Option<(u64, Binding)> {
+    HostMemory::now().room()
 }
 
 /// Meshes `scene`; `device` is needed for the discontinuity mesher's GPU
@@ -173,6 +175,9 @@ pub struct MeshBuilder<'a> {
     scene: &'a Scene,
     settings: MeshSettings,
     table: Option<BlockerTable>,
+    /// The most elements a discontinuity mesh may reach before its build
+    /// stops with `Error::OutOfMemory` (see [`Self::set_element_budget`]).
+    max_elements: Option<usize>,
 }
 
 impl<'a> MeshBuilder<'a> {
@@ -186,7 +191,7 @@ impl<'a> MeshBuilder<'a> {
         // Refuse what cannot fit before any of it is built.
         CostEstimate::new(scene, &settings).check(
             device.info.memory_bytes,
-            host_memory_available(),
+            host_memory_room(),
             settings.max_edge,
         )?;
         Ok(MeshBuilder {
@@ -194,7 +199,15 @@ impl<'a> MeshBuilder<'a> {
             scene,
             settings,
             table: None,
+            max_elements: None,
         })
+    }
+
+    /// Caps the elements of the discontinuity meshes built from now on
+    /// (`None`: no cap): their count is known only once built, and what
+    /// memory allows is known before.
+    pub fn set_element_budget(&mut self, max_elements: Option<usize>) {
+        self.max_elements = max_elements;
     }
 
     /// The mesher this builder runs.
@@ -220,7 +233,7 @@ impl<'a> MeshBuilder<'a> {
         };
         CostEstimate::new(self.scene, &settings).check(
             self.device.info.memory_bytes,
-            host_memory_available(),
+            host_memory_room(),
             max_edge,
         )?;
         let saved = std::mem::replace(&mut self.settings, settings);
@@ -283,7 +296,17 @@ impl<'a> MeshBuilder<'a> {
                     detail: settings.detail,
                     max_edge: subdivide.then_some(settings.max_edge),
                     extra_points: extra_points.to_vec(),
+                    max_elements: self.max_elements,
                     ..Default::default()
+                };
+                // One patch's refinement alone may not pass the budget.
+                let options = DiscontinuityOptions {
+                    max_triangles_per_patch: self
+                        .max_elements
+                        .map_or(options.max_triangles_per_patch, |m| {
+                            m.min(options.max_triangles_per_patch)
+                        }),
+                    ..options
                 };
                 let oracle = |e: usize, k: usize, t: usize| table.get(e, k, t);
                 let (mesh, stats) = discontinuity_mesh_metered(scene, &oracle, &options, meter)?;

@@ -62,26 +62,53 @@ impl DisplayMesh {
     }
 }
 
+/// The most display elements memory allows ([`display_mesh`] makes the
+/// mesh coarser to stay under it), and the limit that sets it, as the
+/// warnings name it.
+#[derive(Debug, Clone)]
+pub struct DisplayBudget {
+    pub max_elements: u64,
+    pub limit: String,
+}
+
 /// The finer mesh the final gather shades: the display mesher at the
 /// display edge, unless both are the solve's (a coarser mesh for the
 /// display is never built: `None`). A discontinuity display mesh that
 /// cannot be built (too many patches, or a mesh that fails its check)
-/// falls back to a uniform one, with a warning.
+/// falls back to a uniform one, with a warning. Under a `budget` (read
+/// again before the fallback: a build that stopped may leave memory
+/// mapped), the edge grows until the uniform mesh at it fits, a
+/// discontinuity mesh that passes it falls back to that uniform one, and
+/// where nothing finer than the solve's mesh fits, that is shown (`None`);
+/// each with a warning.
 pub fn display_mesh(
     request: &DisplayRequest,
     scene: &Scene,
     device: &Arc<Device>,
     builder: &mut MeshBuilder,
+    budget: Option<&dyn Fn() -> DisplayBudget>,
     warnings: &mut Vec<String>,
     meter: &mut MeshMeter,
 ) -> Result<Option<DisplayMesh>> {
     let solved = *builder.settings();
-    let Some((mesher, edge)) = request.choice(scene, &solved) else {
+    let Some((mesher, wanted)) = request.choice(scene, &solved) else {
         return Ok(None);
     };
-    let mut build = |mesher: Mesher, builder: &mut MeshBuilder| -> Result<DisplayMesh> {
+    let first = budget.map(|b| b());
+    let Some(edge) = fit_edge(scene, wanted, solved.max_edge, first.as_ref(), warnings) else {
+        return Ok(None);
+    };
+    let build = |mesher: Mesher,
+                 edge: f32,
+                 cap: Option<usize>,
+                 builder: &mut MeshBuilder,
+                 meter: &mut MeshMeter|
+     -> Result<DisplayMesh> {
         let mesh = if mesher == solved.mesher {
-            builder.build_finer_metered(edge, meter)?.0
+            builder.set_element_budget(cap);
+            let built = builder.build_finer_metered(edge, meter);
+            builder.set_element_budget(None);
+            built?.0
         } else {
             // Shadow lines only where the image shows them (see
             // `ShadowDetail::Display`).
@@ -91,9 +118,9 @@ pub fn display_mesh(
                 detail: ShadowDetail::Display(edge),
                 ..solved
             };
-            MeshBuilder::new(device, scene, settings)?
-                .build_metered(&[], meter)?
-                .0
+            let mut display = MeshBuilder::new(device, scene, settings)?;
+            display.set_element_budget(cap);
+            display.build_metered(&[], meter)?.0
         };
         if request.check {
             check_mesh(&mesh, scene, mesher)?;
@@ -105,13 +132,67 @@ pub fn display_mesh(
             shown: None,
         })
     };
-    match build(mesher, builder) {
+    let cap = first.as_ref().map(|b| b.max_elements as usize);
+    match build(mesher, edge, cap, builder, meter) {
         Err(Error::Mesh(why)) if mesher != Mesher::Uniform => {
             warnings.push(format!(
                 "the discontinuity display mesh failed its check ({why}); the image shows a uniform mesh"
             ));
-            build(Mesher::Uniform, builder).map(Some)
+            build(Mesher::Uniform, edge, None, builder, meter).map(Some)
+        }
+        Err(Error::OutOfMemory { what, .. }) if mesher != Mesher::Uniform => {
+            let again = budget.map(|b| b());
+            let Some(edge) = fit_edge(scene, edge, solved.max_edge, again.as_ref(), warnings)
+            else {
+                return Ok(None);
+            };
+            warnings.push(format!(
+                "the discontinuity display mesh does not fit ({what}; {}): the image shows a uniform display mesh at edge {edge}, whose shadows are blurred (--tune display_edge, or --shade pixels)",
+                again.map_or("no memory limit read".to_string(), |b| format!(
+                    "{} elements fit in the {}",
+                    b.max_elements, b.limit
+                ))
+            ));
+            build(Mesher::Uniform, edge, None, builder, meter).map(Some)
         }
         other => other.map(Some),
     }
+}
+
+/// The display edge, from `wanted` up, at which the uniform mesh (the
+/// fewest elements a display mesh at an edge has; its count is exact)
+/// fits `budget`, with a warning where it is coarser; `None` where only
+/// the solve's own mesh (edge `solved`) fits.
+fn fit_edge(
+    scene: &Scene,
+    wanted: f32,
+    solved: f32,
+    budget: Option<&DisplayBudget>,
+    warnings: &mut Vec<String>,
+) -> Option<f32> {
+    let Some(b) = budget else {
+        return Some(wanted);
+    };
+    let mut edge = wanted;
+    while mesh::element_count(scene, edge) > b.max_elements {
+        edge *= 1.25;
+        if edge >= solved {
+            warnings.push(format!(
+                "a display mesh at edge {wanted} would have at least {} elements, more than the {} that fit in the {}: the image shows the solved mesh (a larger --max-edge, or --shade pixels, leaves room for one)",
+                mesh::element_count(scene, wanted),
+                b.max_elements,
+                b.limit
+            ));
+            return None;
+        }
+    }
+    if edge > wanted {
+        warnings.push(format!(
+            "a display mesh at edge {wanted} would have at least {} elements, more than the {} that fit in the {}: the image shows a coarser one (edge {edge}; --tune display_edge sets it)",
+            mesh::element_count(scene, wanted),
+            b.max_elements,
+            b.limit
+        ));
+    }
+    Some(edge)
 }

@@ -116,6 +116,10 @@ pub struct DiscontinuityOptions {
     pub snap_relative: f64,
     /// Refinement stops adding triangles to a patch beyond this many.
     pub max_triangles_per_patch: usize,
+    /// Stop with [`Error::OutOfMemory`] once the mesh has more elements
+    /// than this: a display mesh's shadow lines are known only as they
+    /// are built, and the caller has a coarser mesh to fall back on.
+    pub max_elements: Option<usize>,
     /// Extra vertices to insert, per patch (a-posteriori refinement: points
     /// where the radiosity varies too much). Points on a patch's boundary
     /// reach its neighbours through the shared-edge clustering.
@@ -132,6 +136,7 @@ impl Default for DiscontinuityOptions {
             contact: true,
             snap_relative: 1e-4,
             max_triangles_per_patch: 1 << 20,
+            max_elements: None,
             extra_points: Vec::new(),
         }
     }
@@ -351,6 +356,16 @@ pub fn discontinuity_mesh_metered(
         }
         stats.cdt_time += start.elapsed();
         mesh.patch_elements.push(first..mesh.elements.len() as u32);
+        if let Some(cap) = options.max_elements.filter(|&c| mesh.elements.len() > c) {
+            return Err(Error::OutOfMemory {
+                what: format!(
+                    "the discontinuity mesh passed {cap} elements after {} of {} patches",
+                    p + 1,
+                    patches.len()
+                ),
+                hint: "use a larger --tune display_edge or --max-edge".into(),
+            });
+        }
     }
     let start = Instant::now();
     stats.coplanar_points = remove_t_junctions(&mut mesh, scene);
