@@ -472,10 +472,12 @@ proptest! {
             prop_assert!(t.sample(glam::Vec2::new(0.3, 0.6)).is_finite());
         }
         let obj = dir.join("scene.obj");
-        std::fs::write(&obj, format!(
+        std::fs::write(
+            &obj,
             "mtllib scene.mtl\nv 0 0 0\nv 1 0 0\nv 1 0 1\nv 0 0 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
-             usemtl tex\nf 1/1 4/4 3/3 2/2\nv 0 1 0\nv 0 1 1\nv 1 1 1\nv 1 1 0\nusemtl light\nf 5 8 7 6\n"
-        )).unwrap();
+             usemtl tex\nf 1/1 4/4 3/3 2/2\nv 0 1 0\nv 0 1 1\nv 1 1 1\nv 1 1 0\nusemtl light\nf 5 8 7 6\n",
+        )
+        .unwrap();
         std::fs::write(dir.join("scene.mtl"), format!(
             "newmtl tex\nKd 0.5 0.5 0.5\nmap_Kd t.{ext}\nnewmtl light\nKd 0 0 0\nKe 1 1 1\n"
         )).unwrap();
