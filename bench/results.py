@@ -399,7 +399,8 @@ def gallery(linked):
 
 
 def races(linked):
-    files = sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json")))
+    files = sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))
+                   if not os.path.basename(p).startswith("race-walkthrough"))
     files += sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json")))
     docs = [(rel, load(rel)) for rel in files]
     docs = [(rel, d) for rel, d in docs if isinstance(d, dict)]
@@ -481,6 +482,38 @@ def memory_section(rel, title, linked):
                      secs(r.get("gather_s")), mib(p), mib(e), f"{p / e:.2f}" if num(p) and num(e) and e else None])
     lines += table(["scene", "polygons", "elements solved", "wall s", "gather s", "peak MiB", "estimate MiB",
                     "peak / estimate"], rows)
+    return lines + [""]
+
+
+def walkthrough_section(linked):
+    """One solve and N draws against N path-traced images at equal error."""
+    rels = sorted(os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-walkthrough-*.json")))
+    docs = [(rel, d) for rel, d in ((rel, load(rel)) for rel in rels) if d]
+    if not docs:
+        return []
+    lines = ["## The walkthrough race", "",
+             "`bench/pathtracer/walkthrough.py`: N views of one scene along a dolly inside it. vkrad solves once "
+             "and draws its lit mesh from every camera (`--views`); the path tracer (Mitsuba 3, CPU) renders "
+             "each view from scratch until it reaches vkrad's error on that view (relative RMSE over the lit "
+             "pixels against a reference of two independent halves, its noise taken out). Times are wall "
+             "seconds on the same 2 cores; vkrad's include start-up, solve, gather and every draw.", ""]
+    rows = []
+    for rel, d in docs:
+        views = dicts(d.get("views"))
+        vk = d.get("vkrad_cumulative_seconds") or []
+        pt = d.get("pt_cumulative_seconds") or []
+        errs = [v.get("vkrad_error") for v in views if num(v.get("vkrad_error"))]
+        rows.append([f"[`{rel}`]({rel})", d.get("scene"), len(views),
+                     f"{pct(min(errs))}–{pct(max(errs))}" if errs else None,
+                     secs(vk[-1]) if vk else None, secs(pt[-1]) if pt and num(pt[-1]) else "did not reach",
+                     ratio(pt[-1], vk[-1]) if pt and vk and num(pt[-1]) else None, file_date(rel, d)])
+        lines_png = rel[:-5] + ".png"
+        linked.add(lines_png)
+    lines += table(["file", "scene", "views", "vkrad error per view", "vkrad, all views s",
+                    "path tracer, all views s", "path tracer / vkrad", "date"], rows)
+    lines.append("")
+    for rel, _ in docs:
+        lines += charts([rel[:-5] + ".png"], linked)
     return lines + [""]
 
 
@@ -694,6 +727,7 @@ def main():
     body += gal
     body += races(linked)
     body += views_section(linked)
+    body += walkthrough_section(linked)
     body += memory_section("memory.json", "## Memory against the estimate", linked)
     body += scenes_section(linked)
     body += gather_cost_section(linked)
