@@ -111,16 +111,25 @@ impl CostEstimate {
 
     /// Refuses a mesh that cannot fit: more than [`MAX_ELEMENTS`], more
     /// host memory than is available (when the system says), or more than
-    /// 80% of the device's memory. `max_edge` is named in the advice.
+    /// 80% of the device's memory. The setting that sized the mesh is
+    /// named in the advice: the solve's `--max-edge`, or the display
+    /// mesh's `--tune display_edge` (a display mesh's [`ShadowDetail`]).
     pub fn check(
         &self,
         device_memory: u64,
         host_available: Option<(u64, Binding)>,
-        max_edge: f32,
+        settings: &MeshSettings,
     ) -> Result<()> {
         let gb = |b: u64| b as f64 / (1u64 << 30) as f64;
+        let edge = settings.max_edge;
+        let (setting, name) = match settings.detail {
+            ShadowDetail::Full => (format!("--max-edge {edge}"), "--max-edge"),
+            ShadowDetail::Display(_) => {
+                (format!("--tune display_edge={edge}"), "--tune display_edge")
+            }
+        };
         let what = format!(
-            "--max-edge {max_edge} would make {}{} elements ({:.2} GB of memory, {:.2} GB on the GPU)",
+            "{setting} would make {}{} elements ({:.2} GB of memory, {:.2} GB on the GPU)",
             if self.exact { "" } else { "about " },
             self.elements,
             gb(self.host_bytes),
@@ -142,7 +151,7 @@ impl CostEstimate {
         match why {
             Some(why) => Err(Error::OutOfMemory {
                 what: format!("{what}: {why}"),
-                hint: "use a larger --max-edge (elements grow as 1 / max-edge^2)".into(),
+                hint: format!("use a larger {name} (elements grow as 1 / edge^2)"),
             }),
             None => Ok(()),
         }
@@ -192,7 +201,7 @@ impl<'a> MeshBuilder<'a> {
         CostEstimate::new(scene, &settings).check(
             device.info.memory_bytes,
             host_memory_room(),
-            settings.max_edge,
+            &settings,
         )?;
         Ok(MeshBuilder {
             device,
@@ -231,10 +240,15 @@ impl<'a> MeshBuilder<'a> {
             max_edge,
             ..self.settings
         };
+        // A display mesh: a refusal names the display edge.
+        let as_display = MeshSettings {
+            detail: ShadowDetail::Display(max_edge),
+            ..settings
+        };
         CostEstimate::new(self.scene, &settings).check(
             self.device.info.memory_bytes,
             host_memory_room(),
-            max_edge,
+            &as_display,
         )?;
         let saved = std::mem::replace(&mut self.settings, settings);
         let built = self.build_metered(&[], meter);
