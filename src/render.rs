@@ -131,7 +131,7 @@ const MAX_BACK_SHARE: f32 = 0.05;
 /// above, the bounding sphere filling the view) is kept where nearly all it
 /// sees faces it: objects and open scenes. Otherwise (an enclosed scene,
 /// seen from outside, shows the backs of its walls, which are culled) the
-/// candidates of [`candidate_cameras`] are judged by [`judge_view`] and the
+/// candidates of [`candidate_cameras`] are judged (a [`ViewJudgement`] each) and the
 /// one that sees the most front-facing area wins.
 pub fn frame_bounds(scene: &Scene) -> Camera {
     let candidates = candidate_cameras(scene);
