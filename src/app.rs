@@ -40,7 +40,7 @@ pub struct Job {
     pub output: Option<PathBuf>,
     /// The lit mesh to write (`.ply`, `.obj`, `.glb`, `.gltf`).
     pub export: Option<PathBuf>,
-    /// A views file (see [`views`]): the lit mesh is also drawn from each
+    /// A views file (`vkrad --help` gives its form): the lit mesh is also drawn from each
     /// of its cameras, one image each.
     pub views: Option<PathBuf>,
     pub device: DeviceOptions,
@@ -73,7 +73,7 @@ pub struct Job {
     /// (penumbrae, skinny elements between shadow lines).
     pub display_refinements: usize,
     /// Where the image is gathered: at its pixels or at a display mesh's
-    /// vertices ([`Shade`]).
+    /// vertices (`Shade`).
     pub shade: Shade,
     /// With a display mesh: gather the vertices of the elements the image
     /// does not show too. Off, only the shown elements' vertices are
@@ -82,7 +82,7 @@ pub struct Job {
     /// anywhere.
     pub gather_unseen: bool,
     /// A-posteriori refinement passes (discontinuity mesher only): split
-    /// the elements whose interpolation error (see [`crate::solve::adaptive`]) is
+    /// the elements whose interpolation error (see `solve::adaptive`) is
     /// over `tolerance` x the mean radiosity, worst first and within
     /// `max_elements`, and solve again.
     pub adaptive: usize,

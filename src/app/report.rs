@@ -71,7 +71,7 @@ pub struct Report {
     /// What the final gather did, as it says of itself.
     pub gather: GatherFacts,
     /// Where the image was gathered at its pixels
-    /// ([`crate::gather::pixels`]) rather than drawn from a mesh's
+    /// (`gather::pixels`) rather than drawn from a mesh's
     /// vertex values: the points its reflected light and its direct light
     /// were gathered at.
     pub gathered_at_pixels: Option<(usize, usize)>,

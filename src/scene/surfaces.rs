@@ -27,7 +27,7 @@ pub const SMOOTH_COS: f32 = 0.97;
 impl Scene {
     /// Per patch, the number of its smooth surface: the connected groups
     /// of patches in which each patch shares a corner (at the same
-    /// position) with another whose normal is within [`SMOOTH_COS`] of
+    /// position) with another whose normal is within `SMOOTH_COS` of
     /// its own. Numbers run from 0 in the order of each surface's first
     /// patch.
     pub fn smooth_surfaces(&self) -> Vec<u32> {
