@@ -105,10 +105,10 @@ pub struct Variable {
 #[derive(Debug, Default)]
 pub struct Module {
     pub names: HashMap<u32, String>,
-    pub member_names: HashMap<(u32, u32), String>,
+    member_names: HashMap<(u32, u32), String>,
     pub types: HashMap<u32, Type>,
     /// Scalar constants: their first word (integers and 32-bit floats).
-    pub constants: HashMap<u32, u32>,
+    constants: HashMap<u32, u32>,
     pub variables: Vec<Variable>,
     /// (decoration, literal) per id, e.g. (Binding, 3).
     decorations: HashMap<(u32, u32), u32>,

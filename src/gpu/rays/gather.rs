@@ -19,7 +19,9 @@ pub const MAX_SOURCE_CORNERS: usize = 8;
 /// when its first `FIRST_RAYS` rays and its corners agree, over
 /// `2 * FIRST_RAYS` rays (the shader's and the CPU gather's rule).
 pub const FIRST_RAYS: usize = 16;
-/// Its corners are tested this share of the way in towards its centre.
+/// How far inside a source its corner rays aim (a share of the way to its
+/// centre): off the source's own edge, which may touch the surface around
+/// it (the shader's and the CPU gather's rule).
 pub const CORNER_INSET: f64 = 1e-3;
 /// Rays (an upper bound per point) per submission by default: about a
 /// quarter of a second on lavapipe (2 cores) on the Cornell box.
