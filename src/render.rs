@@ -7,7 +7,7 @@ use glam::{Mat4, Vec3};
 
 use crate::error::{Error, Result};
 use crate::geom::frustum::perspective;
-use crate::gpu::raster::{render_lit_mesh, LitVertex};
+use crate::gpu::raster::{LitMeshRenderer, LitVertex};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::output::image_io::HdrImage;
@@ -436,69 +436,98 @@ pub fn render_image(
     mesh: &Mesh,
     vertex_radiance: &[[f32; 3]],
     camera: &Camera,
-    (width, height): (u32, u32),
+    size: (u32, u32),
     wireframe: bool,
     times: &mut StageTimes,
 ) -> Result<HdrImage> {
-    if width == 0 || height == 0 || width > 16384 || height > 16384 {
-        return Err(Error::Invalid(format!(
-            "image size {width}x{height} is out of range (1..16384 per side)"
-        )));
-    }
-    let view_proj = camera_view_proj(camera, width as f32 / height as f32, scene.extent())?;
-    let lit = lit_vertices(scene, mesh, vertex_radiance);
-    // The largest buffer of a run shaded on a display mesh (its vertices
-    // unshared, 48 bytes each): reserved fallibly, so a late failure is a
-    // message.
-    let mut triangles = Error::try_vec(
-        mesh.triangle_count() * 3,
-        "the render's triangles",
-        "use a larger --tune display_edge, or --shade pixels",
-    )?;
-    for e in &mesh.elements {
-        for tri in e.triangles() {
-            triangles.extend(tri.iter().map(|&v| lit[v as usize]));
+    LitMeshImages::new(device, scene, mesh, vertex_radiance, size, wireframe)?.draw(camera, times)
+}
+
+/// The lit mesh on the GPU, drawn from any number of cameras: its
+/// triangles, textures and pipeline are made once ([`LitMeshRenderer`]).
+pub struct LitMeshImages<'a> {
+    scene: &'a Scene,
+    mesh: &'a Mesh,
+    renderer: LitMeshRenderer,
+    size: (u32, u32),
+    wireframe: bool,
+}
+
+impl<'a> LitMeshImages<'a> {
+    pub fn new(
+        device: &Arc<Device>,
+        scene: &'a Scene,
+        mesh: &'a Mesh,
+        vertex_radiance: &[[f32; 3]],
+        (width, height): (u32, u32),
+        wireframe: bool,
+    ) -> Result<Self> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(Error::Invalid(format!(
+                "image size {width}x{height} is out of range (1..16384 per side)"
+            )));
         }
-    }
-    let textures = gpu_textures(scene);
-    let samples = samples_per_pixel(width, height);
-    let view_projs: Vec<Mat4> = pixel_samples(samples)
-        .into_iter()
-        .map(|s| jittered(view_proj, s, width, height))
-        .collect();
-    let lines = if wireframe {
-        wireframe_lines(mesh, camera.eye)
-    } else {
-        Vec::new()
-    };
-    let passes = render_lit_mesh(
-        device,
-        &triangles,
-        &lines,
-        &textures,
-        &view_projs,
-        width,
-        height,
-        times,
-    )?;
-    let count = (width * height) as usize;
-    let scale = 1.0 / samples as f32;
-    let pixels = (0..count)
-        .map(|i| {
-            let mut sum = [0.0f32; 3];
-            for pass in passes.chunks_exact(count) {
-                for c in 0..3 {
-                    sum[c] += pass[i][c];
-                }
+        let lit = lit_vertices(scene, mesh, vertex_radiance);
+        // The largest buffer of a run shaded on a display mesh (its vertices
+        // unshared, 48 bytes each): reserved fallibly, so a late failure is a
+        // message.
+        let mut triangles = Error::try_vec(
+            mesh.triangle_count() * 3,
+            "the render's triangles",
+            "use a larger --tune display_edge, or --shade pixels",
+        )?;
+        for e in &mesh.elements {
+            for tri in e.triangles() {
+                triangles.extend(tri.iter().map(|&v| lit[v as usize]));
             }
-            sum.map(|s| s * scale)
+        }
+        let renderer = LitMeshRenderer::new(device, &triangles, &gpu_textures(scene))?;
+        Ok(LitMeshImages {
+            scene,
+            mesh,
+            renderer,
+            size: (width, height),
+            wireframe,
         })
-        .collect();
-    Ok(HdrImage {
-        width,
-        height,
-        pixels,
-    })
+    }
+
+    /// The image `camera` sees.
+    pub fn draw(&self, camera: &Camera, times: &mut StageTimes) -> Result<HdrImage> {
+        let (width, height) = self.size;
+        let view_proj =
+            camera_view_proj(camera, width as f32 / height as f32, self.scene.extent())?;
+        let samples = samples_per_pixel(width, height);
+        let view_projs: Vec<Mat4> = pixel_samples(samples)
+            .into_iter()
+            .map(|s| jittered(view_proj, s, width, height))
+            .collect();
+        let lines = if self.wireframe {
+            wireframe_lines(self.mesh, camera.eye)
+        } else {
+            Vec::new()
+        };
+        let passes = self
+            .renderer
+            .render(&lines, &view_projs, width, height, times)?;
+        let count = (width * height) as usize;
+        let scale = 1.0 / samples as f32;
+        let pixels = (0..count)
+            .map(|i| {
+                let mut sum = [0.0f32; 3];
+                for pass in passes.chunks_exact(count) {
+                    for c in 0..3 {
+                        sum[c] += pass[i][c];
+                    }
+                }
+                sum.map(|s| s * scale)
+            })
+            .collect();
+        Ok(HdrImage {
+            width,
+            height,
+            pixels,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Device, StageTimes};
 use crate::mesh::Mesh;
 use crate::output::image_io::save_image;
-use crate::render::render_image;
+use crate::render::LitMeshImages;
 use crate::scene::{Camera, Scene};
 
 /// One camera of a views file and the image it writes.
@@ -148,20 +148,20 @@ pub(super) fn draw_views(
     if views.is_empty() {
         return Ok(Vec::new());
     }
+    // The mesh goes to the GPU once; each view is then one draw.
     let radiance = crate::render::radiance_of(shown.to_vec());
+    let images = LitMeshImages::new(
+        device,
+        scene,
+        shown_mesh,
+        &radiance,
+        job.size,
+        job.wireframe,
+    )?;
     let mut written = Vec::with_capacity(views.len());
     for view in views {
         let t = Instant::now();
-        let image = render_image(
-            device,
-            scene,
-            shown_mesh,
-            &radiance,
-            &view.camera.apply(*camera),
-            job.size,
-            job.wireframe,
-            gpu_times,
-        )?;
+        let image = images.draw(&view.camera.apply(*camera), gpu_times)?;
         let seconds = t.elapsed().as_secs_f64();
         save_image(&image, &view.output, Some(exposure))?;
         written.push((view.output.clone(), seconds));

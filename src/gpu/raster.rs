@@ -114,82 +114,23 @@ pub(crate) const PUSH_BYTES: u32 = 64;
 const COLOR_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-/// Renders `triangles` (three vertices each) into a `width` x `height`
-/// linear-radiance image (rgba, top row first), then `lines` (two vertices
-/// each; empty for none) over it, once per matrix of `view_projs` (one
-/// pass each, e.g. sub-pixel jitters of one camera). Returns the passes'
-/// images one after the other.
-#[allow(clippy::too_many_arguments)]
-pub fn render_lit_mesh(
-    device: &Arc<Device>,
-    triangles: &[LitVertex],
-    lines: &[LitVertex],
-    textures: &Textures,
-    view_projs: &[glam::Mat4],
-    width: u32,
-    height: u32,
-    times: &mut StageTimes,
-) -> Result<Vec<[f32; 4]>> {
-    let extent = vk::Extent2D { width, height };
-    let pixels = width as u64 * height as u64;
-    let passes = view_projs.len() as u64;
-    let (color, depth, readback) = targets(device, extent, passes)?;
-    let vertices = upload(
-        device,
-        "lit mesh vertices",
-        triangles,
-        vk::BufferUsageFlags::VERTEX_BUFFER,
-    )?;
-    // Storage buffers may not be empty: one unused entry where there is
-    // no texture.
-    let no_info = [<TextureInfo as bytemuck::Zeroable>::zeroed()];
-    let infos = upload(
-        device,
-        "texture infos",
-        if textures.infos.is_empty() {
-            &no_info[..]
-        } else {
-            &textures.infos
-        },
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-    )?;
-    let texels = upload(
-        device,
-        "texture texels",
-        if textures.texels.is_empty() {
-            &[0u32][..]
-        } else {
-            &textures.texels
-        },
-        vk::BufferUsageFlags::STORAGE_BUFFER,
-    )?;
-    let bindings = Bindings::new(device, "final render bindings", &LAYOUT, PUSH_BYTES)?;
-    bindings.bind_buffer(
-        B_TEXTURE_INFOS,
-        vk::DescriptorType::STORAGE_BUFFER,
-        infos.raw(),
-    );
-    bindings.bind_buffer(B_TEXELS, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
+/// The pipeline description of the lit mesh's triangles or lines.
+fn lit_desc(topology: vk::PrimitiveTopology, textured: bool) -> GraphicsDesc<'static> {
     // A scene without textures is drawn by shaders without their inputs:
     // on lavapipe the textured pair made the Cornell box's final render
     // 1.66 s against 0.95 s.
-    let textured = !textures.infos.is_empty();
-    let attributes: &[(u32, vk::Format, u32)] = if textured {
-        &LIT_ATTRIBUTES
+    let (vertex, fragment, attributes): (_, _, &'static [(u32, vk::Format, u32)]) = if textured {
+        (shaders::RENDER_VERT, shaders::RENDER_FRAG, &LIT_ATTRIBUTES)
     } else {
-        &PLAIN_ATTRIBUTES
+        (
+            shaders::RENDER_PLAIN_VERT,
+            shaders::RENDER_PLAIN_FRAG,
+            &PLAIN_ATTRIBUTES,
+        )
     };
-    let desc = |topology| GraphicsDesc {
-        vertex: if textured {
-            shaders::RENDER_VERT
-        } else {
-            shaders::RENDER_PLAIN_VERT
-        },
-        fragment: if textured {
-            shaders::RENDER_FRAG
-        } else {
-            shaders::RENDER_PLAIN_FRAG
-        },
+    GraphicsDesc {
+        vertex,
+        fragment,
         vertex_stride: std::mem::size_of::<LitVertex>() as u32,
         attributes,
         color_format: COLOR_FORMAT,
@@ -197,113 +138,201 @@ pub fn render_lit_mesh(
         depth_compare: vk::CompareOp::GREATER,
         stencil: None,
         topology,
-    };
-    let pipeline = Pipeline::graphics(
-        device,
-        "final render",
-        bindings.layout,
-        &desc(vk::PrimitiveTopology::TRIANGLE_LIST),
-    )?;
-    // Lines are optional; their vertices come pulled towards the eye so
-    // they win the depth test against the surface they lie on.
-    let line_pass = if lines.is_empty() {
-        None
-    } else {
-        Some((
-            Pipeline::graphics(
-                device,
-                "wireframe",
-                bindings.layout,
-                &desc(vk::PrimitiveTopology::LINE_LIST),
-            )?,
-            upload(
-                device,
-                "wireframe vertices",
-                lines,
-                vk::BufferUsageFlags::VERTEX_BUFFER,
-            )?,
-        ))
-    };
-    let cmds = Commands::new(device, "final render commands")?;
-    let mut profiler = GpuProfiler::new(device, "final render timestamps", 4)?;
-    let cmd = cmds.begin()?;
-    profiler.begin(cmd);
-    profiler.set_submission(|| {
-        (
-            "final render".into(),
-            serde_json::json!({
-                "width": width, "height": height, "samples": view_projs.len(),
-                "triangles": triangles.len() / 3, "lines": lines.len() / 2,
-            }),
-        )
-    });
-    profiler.begin_pass(cmd, "final render");
-    to_attachment_layouts(device, cmd, &color, &depth);
-    let raw = &device.raw;
-    for (pass, view_proj) in view_projs.iter().enumerate() {
-        if pass > 0 {
-            back_to_attachment(device, cmd, &color);
-        }
-        // SAFETY: cmd is recording; all handles live until after the fence wait.
-        unsafe {
-            begin_rendering(
-                device,
-                cmd,
-                extent,
-                (
-                    color.view(),
-                    vk::ClearColorValue {
-                        float32: [0.0, 0.0, 0.0, 1.0],
-                    },
-                ),
-                depth.view(),
-                false,
-            );
-            raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
-            raw.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                bindings.layout,
-                0,
-                &[bindings.set],
-                &[],
-            );
-            set_viewport(device, cmd, (0, 0, width, height));
-            raw.cmd_push_constants(
-                cmd,
-                bindings.layout,
-                vk::ShaderStageFlags::ALL,
-                0,
-                bytemuck::bytes_of(&view_proj.to_cols_array()),
-            );
-            raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
-            raw.cmd_draw(cmd, triangles.len() as u32, 1, 0, 0);
-            if let Some((line_pipeline, line_vertices)) = &line_pass {
-                raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
-                raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
-                raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
-            }
-            raw.cmd_end_rendering(cmd);
-        }
-        record_readback(
+    }
+}
+
+/// A lit mesh on the GPU with its textures and pipeline, uploaded and
+/// built once and drawn from as many cameras as asked ([`Self::render`]).
+pub struct LitMeshRenderer {
+    device: Arc<Device>,
+    vertices: Buffer,
+    vertex_count: u32,
+    // Bound in `bindings`: kept alive with them.
+    _infos: Buffer,
+    _texels: Buffer,
+    bindings: Bindings,
+    pipeline: Pipeline,
+    textured: bool,
+}
+
+impl LitMeshRenderer {
+    /// Uploads `triangles` (three vertices each) and `textures`, and builds
+    /// the pipeline.
+    pub fn new(device: &Arc<Device>, triangles: &[LitVertex], textures: &Textures) -> Result<Self> {
+        let vertices = upload(
             device,
-            cmd,
-            &color,
-            &readback,
-            extent,
-            pass as u64 * pixels * 16,
+            "lit mesh vertices",
+            triangles,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+        )?;
+        // Storage buffers may not be empty: one unused entry where there is
+        // no texture.
+        let no_info = [<TextureInfo as bytemuck::Zeroable>::zeroed()];
+        let infos = upload(
+            device,
+            "texture infos",
+            if textures.infos.is_empty() {
+                &no_info[..]
+            } else {
+                &textures.infos
+            },
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let texels = upload(
+            device,
+            "texture texels",
+            if textures.texels.is_empty() {
+                &[0u32][..]
+            } else {
+                &textures.texels
+            },
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+        )?;
+        let bindings = Bindings::new(device, "final render bindings", &LAYOUT, PUSH_BYTES)?;
+        bindings.bind_buffer(
+            B_TEXTURE_INFOS,
+            vk::DescriptorType::STORAGE_BUFFER,
+            infos.raw(),
         );
+        bindings.bind_buffer(B_TEXELS, vk::DescriptorType::STORAGE_BUFFER, texels.raw());
+        let textured = !textures.infos.is_empty();
+        let pipeline = Pipeline::graphics(
+            device,
+            "final render",
+            bindings.layout,
+            &lit_desc(vk::PrimitiveTopology::TRIANGLE_LIST, textured),
+        )?;
+        Ok(LitMeshRenderer {
+            device: device.clone(),
+            vertices,
+            vertex_count: triangles.len() as u32,
+            _infos: infos,
+            _texels: texels,
+            bindings,
+            pipeline,
+            textured,
+        })
     }
-    profiler.end_pass(cmd);
-    cmds.end()?;
-    let capturing = device.capture_start(|t| t == CaptureTarget::Render);
-    let submitted = std::time::Instant::now();
-    cmds.submit_and_wait()?;
-    if capturing {
-        device.capture_end();
+
+    /// Draws the mesh, then `lines` (two vertices each; empty for none)
+    /// over it, into a `width` x `height` linear-radiance image (rgba, top
+    /// row first), once per matrix of `view_projs`; returns the passes'
+    /// images one after the other.
+    pub fn render(
+        &self,
+        lines: &[LitVertex],
+        view_projs: &[glam::Mat4],
+        width: u32,
+        height: u32,
+        times: &mut StageTimes,
+    ) -> Result<Vec<[f32; 4]>> {
+        let device = &self.device;
+        let (bindings, pipeline, vertices) = (&self.bindings, &self.pipeline, &self.vertices);
+        let extent = vk::Extent2D { width, height };
+        let pixels = width as u64 * height as u64;
+        let passes = view_projs.len() as u64;
+        let (color, depth, readback) = targets(device, extent, passes)?;
+        // Lines are optional; their vertices come pulled towards the eye so
+        // they win the depth test against the surface they lie on.
+        let line_pass = if lines.is_empty() {
+            None
+        } else {
+            Some((
+                Pipeline::graphics(
+                    device,
+                    "wireframe",
+                    bindings.layout,
+                    &lit_desc(vk::PrimitiveTopology::LINE_LIST, self.textured),
+                )?,
+                upload(
+                    device,
+                    "wireframe vertices",
+                    lines,
+                    vk::BufferUsageFlags::VERTEX_BUFFER,
+                )?,
+            ))
+        };
+        let cmds = Commands::new(device, "final render commands")?;
+        let mut profiler = GpuProfiler::new(device, "final render timestamps", 4)?;
+        let cmd = cmds.begin()?;
+        profiler.begin(cmd);
+        profiler.set_submission(|| {
+            (
+                "final render".into(),
+                serde_json::json!({
+                    "width": width, "height": height, "samples": view_projs.len(),
+                    "triangles": self.vertex_count / 3, "lines": lines.len() / 2,
+                }),
+            )
+        });
+        profiler.begin_pass(cmd, "final render");
+        to_attachment_layouts(device, cmd, &color, &depth);
+        let raw = &device.raw;
+        for (pass, view_proj) in view_projs.iter().enumerate() {
+            if pass > 0 {
+                back_to_attachment(device, cmd, &color);
+            }
+            // SAFETY: cmd is recording; all handles live until after the fence wait.
+            unsafe {
+                begin_rendering(
+                    device,
+                    cmd,
+                    extent,
+                    (
+                        color.view(),
+                        vk::ClearColorValue {
+                            float32: [0.0, 0.0, 0.0, 1.0],
+                        },
+                    ),
+                    depth.view(),
+                    false,
+                );
+                raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline.raw);
+                raw.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    bindings.layout,
+                    0,
+                    &[bindings.set],
+                    &[],
+                );
+                set_viewport(device, cmd, (0, 0, width, height));
+                raw.cmd_push_constants(
+                    cmd,
+                    bindings.layout,
+                    vk::ShaderStageFlags::ALL,
+                    0,
+                    bytemuck::bytes_of(&view_proj.to_cols_array()),
+                );
+                raw.cmd_bind_vertex_buffers(cmd, 0, &[vertices.raw()], &[0]);
+                raw.cmd_draw(cmd, self.vertex_count, 1, 0, 0);
+                if let Some((line_pipeline, line_vertices)) = &line_pass {
+                    raw.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, line_pipeline.raw);
+                    raw.cmd_bind_vertex_buffers(cmd, 0, &[line_vertices.raw()], &[0]);
+                    raw.cmd_draw(cmd, lines.len() as u32, 1, 0, 0);
+                }
+                raw.cmd_end_rendering(cmd);
+            }
+            record_readback(
+                device,
+                cmd,
+                &color,
+                &readback,
+                extent,
+                pass as u64 * pixels * 16,
+            );
+        }
+        profiler.end_pass(cmd);
+        cmds.end()?;
+        let capturing = device.capture_start(|t| t == CaptureTarget::Render);
+        let submitted = std::time::Instant::now();
+        cmds.submit_and_wait()?;
+        if capturing {
+            device.capture_end();
+        }
+        profiler.collect(times, submitted)?;
+        readback.read((passes * pixels) as usize)
     }
-    profiler.collect(times, submitted)?;
-    readback.read((passes * pixels) as usize)
 }
 
 /// The colour and depth attachments of the final image, and the buffer the
