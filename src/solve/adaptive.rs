@@ -84,10 +84,11 @@ pub fn refine_and_resolve(
         }
         let t = Instant::now();
         let (mesh, solution) = (&solved.mesh, &solved.solution);
-        let b = solution.vertex_radiosity(mesh);
-        let gaps = interpolation_gaps(scene, mesh, &solution.radiosity, &b, settings.rays);
-        history.errors.push(estimated_error(scene, mesh, &b, &gaps));
-        let points = split_points(scene, mesh, &b, &gaps, settings);
+        // The luminance of every vertex, the level `mesh::refine` compares.
+        let levels = vertex_levels(&solution.vertex_radiosity(mesh));
+        let gaps = interpolation_gaps(scene, mesh, &solution.radiosity, &levels, settings.rays);
+        history.errors.push(estimated_error(scene, mesh, &levels, &gaps));
+        let points = split_points(scene, mesh, &levels, &gaps, settings);
         add_wall(
             &mut history.wall,
             "adaptive estimate",
@@ -133,19 +134,18 @@ pub fn add_wall(wall: &mut Vec<(&'static str, f64)>, name: &'static str, seconds
 }
 
 /// The estimated interpolation error of every element, as a luminance gap
-/// at its centroid (0 for emitters, which show their own uniform emission
+/// at its centroid against its corners' `levels` (0 for emitters, which show their own uniform emission
 /// plus reflection, and for elements with no area).
 pub fn interpolation_gaps(
     scene: &Scene,
     mesh: &Mesh,
     element_radiosity: &[[f32; 3]],
-    vertex_radiosity: &[[f32; 3]],
+    levels: &[f32],
     rays: GatherRays,
 ) -> Vec<f32> {
     let gatherer = Gatherer::new(scene, mesh, element_radiosity, rays);
     let probes: Vec<(Vec3, u32)> = mesh.elements.iter().map(|e| (e.centre, e.patch)).collect();
     let gathered = gatherer.radiosity_at_points(&probes, 0x9e37_79b9);
-    let levels = vertex_levels(vertex_radiosity);
     mesh.elements
         .iter()
         .zip(gathered)
@@ -153,7 +153,7 @@ pub fn interpolation_gaps(
             if is_emitter(scene, e) || e.area <= 0.0 {
                 return 0.0;
             }
-            (luminance(at_centre.to_array()) - corner_mean(e, &levels)).abs()
+            (luminance(at_centre.to_array()) - corner_mean(e, levels)).abs()
         })
         .collect()
 }
@@ -166,12 +166,11 @@ pub fn interpolation_gaps(
 pub fn split_points(
     scene: &Scene,
     mesh: &Mesh,
-    vertex_radiosity: &[[f32; 3]],
+    levels: &[f32],
     gaps: &[f32],
     settings: &AdaptiveSettings,
 ) -> Vec<(u32, Vec3)> {
-    let levels = vertex_levels(vertex_radiosity);
-    let Some(mean) = mean_receiver_level(scene, mesh, &levels, |_| true) else {
+    let Some(mean) = mean_receiver_level(scene, mesh, levels, |_| true) else {
         return Vec::new();
     };
     let limit = settings.tolerance * mean;
@@ -206,11 +205,10 @@ pub fn split_points(
 pub fn estimated_error(
     scene: &Scene,
     mesh: &Mesh,
-    vertex_radiosity: &[[f32; 3]],
+    levels: &[f32],
     gaps: &[f32],
 ) -> f64 {
-    let levels = vertex_levels(vertex_radiosity);
-    let Some(mean) = mean_receiver_level(scene, mesh, &levels, |_| true) else {
+    let Some(mean) = mean_receiver_level(scene, mesh, levels, |_| true) else {
         return 0.0;
     };
     let (mut sq, mut area) = (0.0f64, 0.0f64);
