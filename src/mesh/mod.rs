@@ -14,7 +14,7 @@ pub mod progress;
 pub mod refine;
 mod sanity;
 pub mod smooth;
-mod split;
+pub mod split;
 pub mod uniform;
 
 pub use junction::remove_t_junctions;

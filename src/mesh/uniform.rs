@@ -26,7 +26,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::{remove_t_junctions, Element, Mesh};
+use super::{remove_t_junctions, Mesh};
 use crate::scene::{Patch, Scene};
 
 /// The deepest subdivision level: at most 4^10 (about a million) elements per
@@ -167,23 +167,6 @@ pub(crate) fn polygon_area_centroid(points: &[Vec3]) -> (f32, Vec3) {
     (area as f32, centre)
 }
 
-fn push_element(mesh: &mut Mesh, patch: u32, normal: Vec3, corners: &[u32]) {
-    let mut points = [Vec3::ZERO; 4];
-    let mut c = [0u32; 4];
-    for (k, &v) in corners.iter().enumerate() {
-        points[k] = mesh.vertices[v as usize];
-        c[k] = v;
-    }
-    let (area, centre) = polygon_area_centroid(&points[..corners.len()]);
-    mesh.elements.push(Element {
-        corners: c,
-        corner_count: corners.len() as u8,
-        patch,
-        area,
-        centre,
-        normal,
-    });
-}
 
 /// A quad split into 2^k x 2^k sub-quads, lattice point (i, j) at
 /// bilinear parameters (i / n, j / n).
@@ -217,7 +200,7 @@ fn mesh_quad(mesh: &mut Mesh, patch_index: u32, patch: &Patch, max_edge: f32) {
                 index(i + 1, j + 1),
                 index(i, j + 1),
             ];
-            push_element(mesh, patch_index, patch.normal, &corners);
+            mesh.push_element(patch_index, patch.normal, &corners);
         }
     }
 }
@@ -275,7 +258,7 @@ fn mesh_fan(mesh: &mut Mesh, patch_index: u32, patch: &Patch, max_edge: f32) {
         }
         for tri in tris {
             corners.copy_from_slice(&tri);
-            push_element(mesh, patch_index, patch.normal, &corners);
+            mesh.push_element(patch_index, patch.normal, &corners);
         }
     }
 }
