@@ -2,6 +2,7 @@
 //! the light it received over its whole area, covered part included.
 
 use std::f32::consts::PI;
+use std::sync::OnceLock;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -139,18 +140,49 @@ pub(super) fn unenclosed(
     vertices: &[u32],
     frames: &mut [(Vec3, Vec3, u32)],
 ) {
+    // Built the first time an enclosed vertex asks.
+    let table: OnceLock<Vec<Vec<u32>>> = OnceLock::new();
+    let around = |k: usize| -> Vec<u32> {
+        let table = table.get_or_init(|| {
+            let mut around = vec![Vec::new(); display.vertices.len()];
+            for (e, el) in display.elements.iter().enumerate() {
+                for &v in el.corners() {
+                    around[v as usize].push(e as u32);
+                }
+            }
+            around
+        });
+        table[vertices[k] as usize].clone()
+    };
+    let corners: Vec<Vec3> = vertices
+        .iter()
+        .map(|&v| display.vertices[v as usize])
+        .collect();
+    unenclosed_points(scene, occluders, display, &corners, &around, frames);
+}
+
+/// [`unenclosed`] for any points on `display` (`corners`, the elements
+/// `around` each, by index), such as an edge's midpoint before it is a
+/// vertex: gathered the way a vertex there would be.
+pub(super) fn unenclosed_points(
+    scene: &Scene,
+    occluders: &Occluders,
+    display: &Mesh,
+    corners: &[Vec3],
+    around: &(dyn Fn(usize) -> Vec<u32> + Sync),
+    frames: &mut [(Vec3, Vec3, u32)],
+) {
     // Tested a step further toward the patch's centre than `frames` goes:
     // a hair inside a box, every ray would start within the ray tracer's
     // epsilon of its wall and pass for escaping.
     let enclosed: Vec<bool> = frames
         .par_iter()
-        .zip(vertices.par_iter())
+        .zip(corners.par_iter())
         .enumerate()
-        .map(|(k, (&(_, n, patch), &v))| {
+        .map(|(k, (&(_, n, patch), &corner))| {
             let Some(surface) = scene.patches.get(patch as usize) else {
                 return false;
             };
-            let corner = display.vertices[v as usize];
             let p = corner + ELEMENT_INSET * (surface.centroid() - corner);
             let mut rng = Pcg32::new(0x0e9c_105e, k as u64);
             encloses(scene, occluders, p, n, tangent_frame(n), &mut rng)
@@ -159,22 +191,15 @@ pub(super) fn unenclosed(
     if !enclosed.contains(&true) {
         return;
     }
-    let mut around: Vec<Vec<u32>> = vec![Vec::new(); display.vertices.len()];
-    for (k, el) in display.elements.iter().enumerate() {
-        for &v in el.corners() {
-            around[v as usize].push(k as u32);
-        }
-    }
     frames
         .par_iter_mut()
-        .zip(vertices.par_iter())
+        .zip(corners.par_iter())
         .zip(enclosed.par_iter())
         .enumerate()
         .filter(|(_, (_, &shut))| shut)
-        .for_each(|(k, ((frame, &v), _))| {
+        .for_each(|(k, ((frame, &corner), _))| {
             let mut rng = Pcg32::new(0x0e9c_105f, k as u64);
-            let corner = display.vertices[v as usize];
-            for &e in &around[v as usize] {
+            for e in around(k) {
                 let el = &display.elements[e as usize];
                 if el.patch != frame.2 {
                     continue;

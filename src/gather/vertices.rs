@@ -12,7 +12,7 @@ use super::point_gather::Linking;
 use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
 use super::Gathered;
 use super::{exposure, FinalGather, Frame, Meter};
-use crate::formfactor::receivers::vertex_frames;
+use crate::formfactor::receivers::{vertex_frames, VERTEX_INSET};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
@@ -129,6 +129,42 @@ impl FinalGather<'_> {
 }
 
 impl FinalGather<'_> {
+    /// Radiosity at points on display elements (each with its normal and
+    /// the elements of one patch it lies on, such as an edge's midpoint before a split makes it a
+    /// vertex), gathered as a vertex there would be: moved a hair toward
+    /// its patch's centre, or into its element where that is enclosed,
+    /// its hemisphere rays pooled with its neighbours'. (A point on a
+    /// contact line gathered where it lies reads about half the light of
+    /// the vertex it becomes.) Counted on `meter`, whose total the caller
+    /// has given them.
+    pub fn at_element_points_metered(
+        &mut self,
+        display: &Mesh,
+        points: &[(Vec3, Vec3, Vec<u32>)],
+        meter: &mut Meter,
+    ) -> Option<Vec<[f32; 3]>> {
+        let scene = self.gather.scene;
+        let mut frames: Vec<Frame> = points
+            .iter()
+            .map(|(p, normal, around)| {
+                let patch = display.elements[around[0] as usize].patch;
+                let towards = scene.patches[patch as usize].centroid();
+                (*p + VERTEX_INSET * (towards - *p), *normal, patch)
+            })
+            .collect();
+        let corners: Vec<Vec3> = points.iter().map(|&(p, _, _)| p).collect();
+        let around = |i: usize| points[i].2.clone();
+        exposure::unenclosed_points(
+            scene,
+            &self.gather.occluders,
+            display,
+            &corners,
+            &around,
+            &mut frames,
+        );
+        self.at_display_points(&frames, meter)
+    }
+
     /// Radiosity at display points `frames`. In a scene whose reflected
     /// light hemisphere rays gather, the points pool those rays with
     /// their neighbours' ([`shared_reflected`](super::shared_reflected)):
