@@ -2,7 +2,8 @@
 //! refinement that splits its elements where the Gouraud image is off the
 //! gathered light.
 
-use super::refine::{split_points, Checked, DisplayRefinement};
+use super::refine::{split_plan, Checked, DisplayRefinement};
+use crate::mesh::smooth::place_cells;
 use super::{FinalGather, Meter, VertexCache};
 use crate::mesh::build::Mesher;
 use crate::mesh::display::DisplayMesh;
@@ -21,7 +22,7 @@ pub enum Shaded {
 
 /// Gathers the display mesh's vertices (those of its shown elements,
 /// when it marks them), then (discontinuity display meshes only) splits
-/// its (shown) elements where [`split_points`] finds the Gouraud image
+/// its (shown) elements where [`split_plan`] finds the Gouraud image
 /// wrong and gathers the new vertices; every point is counted on `meter`,
 /// whose total the caller has given the display mesh's vertices (the
 /// refinement passes add their own, and the gather takes back those it
@@ -58,7 +59,7 @@ pub fn shade_display(
     }
     let mut checked = Checked::default();
     for _ in 0..refinement.passes {
-        let Some(split) = split_points(
+        let Some(plan) = split_plan(
             scene,
             &display.mesh,
             &values,
@@ -70,23 +71,16 @@ pub fn shade_display(
         ) else {
             return Shaded::Partial(values);
         };
-        if split.is_empty() {
+        if plan.is_empty() {
             break;
         }
-        // The new vertices take the light gathered at the centroids.
-        let elements = &display.mesh.elements;
-        cache.remember(
-            scene,
-            split
-                .iter()
-                .map(|&(k, value)| (elements[k].patch, elements[k].centre, value)),
-        );
-        let split: Vec<usize> = split.into_iter().map(|(k, _)| k).collect();
-        // Split in place (one triangle into three at its centroid): the
-        // mesh stays conforming, no vertex moves, and only the centroids
-        // are gathered. (Re-meshing with the centroids inserted made the
-        // discontinuity mesher leave regions unsubdivided.)
-        let (finer, parents) = display.mesh.split_at_centroids_traced(&split);
+        // The new vertices take the light gathered at their places.
+        cache.remember(scene, plan.gathered.into_iter());
+        // Split in place (edges at their midpoints on both sides, elements
+        // at their centroids): the mesh stays conforming, no vertex moves.
+        // (Re-meshing with the new points inserted made the discontinuity
+        // mesher leave regions unsubdivided.)
+        let (finer, parents) = display.mesh.cut_traced(&place_cells(scene), &plan.cuts);
         let shown = display.shown.as_ref().map(|shown| {
             parents
                 .iter()

@@ -8,7 +8,7 @@
 //! gradient), so a smooth scene pays almost nothing. A suspect's gap is
 //! judged against the local level (deep shadow counts as a floor).
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use glam::Vec3;
 
@@ -18,6 +18,7 @@ use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 use crate::mesh::refine::{self, corner_mean, longest_edge, mean_receiver_level, CentroidGap};
+use crate::mesh::split::{edge_key, Cuts, EdgeKey};
 
 /// Corners whose shared normal is within about 0.25 degrees of their
 /// element's count as flat.
@@ -42,29 +43,55 @@ pub struct DisplayRefinement {
     pub min_edge: f32,
 }
 
-/// Which element centroids were gathered at already (an element a pass
-/// kept is not looked at again).
+/// Which places were gathered at already and found right (an element or
+/// edge a pass kept is not looked at again).
 #[derive(Default)]
 pub struct Checked {
     centres: HashSet<[i64; 3]>,
+    midpoints: HashSet<(u32, [i64; 3])>,
 }
 
-/// The display elements to split at their centroids (indices, each with
-/// the light gathered at its centroid, which its new vertex then takes),
-/// worst first, at most one per four elements, among those `shown` marks
-/// (`None`: all; the others' values are not gathered); the centroids
-/// gathered are counted on `meter` (`None`: it stopped them).
+/// What a refinement pass splits, and the light gathered at the new
+/// vertices it knows (by patch and point), which they then take.
+#[derive(Default)]
+pub struct SplitPlan {
+    pub cuts: Cuts,
+    pub gathered: Vec<(u32, Vec3, [f32; 3])>,
+}
+
+impl SplitPlan {
+    pub fn is_empty(&self) -> bool {
+        self.cuts.edges.is_empty() && self.cuts.centres.is_empty()
+    }
+}
+
+/// Where a pass probes: an element's centroid, or the midpoint of one of
+/// its edges (seen from that element's side).
+#[derive(Clone, Copy)]
+enum Probe {
+    Centre,
+    Edge { key: EdgeKey, ends: [u32; 2] },
+}
+
+/// The display elements to split, worst first, at most one cut per four
+/// elements, among those `shown` marks (`None`: all; the others' values
+/// are not gathered). The light is gathered at the midpoints of their
+/// edges (the Gouraud value along an edge is the mean of its ends, and a
+/// centroid split never changes an edge, so only a midpoint shows light
+/// that bends along it, as at the foot of a wall) and at the centroids of
+/// those whose corners disagree; the points gathered are counted on
+/// `meter` (`None`: it stopped them).
 #[allow(clippy::too_many_arguments)]
-pub fn split_points(
+pub fn split_plan(
     scene: &Scene,
     display: &Mesh,
     values: &[[f32; 3]],
     shown: Option<&[bool]>,
-    gather: &FinalGather,
+    gather: &mut FinalGather,
     settings: &DisplayRefinement,
     checked: &mut Checked,
     meter: &mut Meter,
-) -> Option<Vec<(usize, [f32; 3])>> {
+) -> Option<SplitPlan> {
     let place = place_cells(scene);
     let levels: Vec<f32> = values.iter().map(|&b| luminance(b)).collect();
     // The lowest and highest corner level.
@@ -78,7 +105,7 @@ pub fn split_points(
             })
     };
     // Elements of a smooth surface split into facets are left alone: a
-    // centroid would be shaded with its facet's normal, not the smooth
+    // new vertex would be shaded with its facet's normal, not the smooth
     // one its corners share, and show the facet.
     let groups = smooth_groups(scene, display, CREASE_DEGREES);
     let flat = |k: usize| {
@@ -93,50 +120,143 @@ pub fn split_points(
     let is_shown = |k: usize| shown.is_none_or(|shown| shown[k]);
     let receiving = |k: usize| {
         let e = &display.elements[k];
-        is_shown(k) && e.area > 0.0 && !scene.patch_material(e.patch).is_emitter() && flat(k)
+        is_shown(k) && e.area > 0.0 && !scene.patch_material(e.patch).is_emitter()
+    };
+    // A vertex's normal: its smooth group's (its patch's where flat).
+    let normal_at = |v: u32| {
+        let group = groups.group[v as usize] as usize;
+        groups.members.get(group).map(|&(_, n)| n)
     };
     let Some(mean) = mean_receiver_level(scene, display, &levels, is_shown) else {
-        return Some(Vec::new());
+        return Some(SplitPlan::default());
     };
     let floor = settings.floor * mean;
-    let suspects: Vec<usize> = (0..display.elements.len())
-        .filter(|&k| receiving(k) && longest_edge(display, k) >= settings.min_edge)
-        .filter(|&k| {
-            let (lo, hi) = corner_range(k);
-            let mean = corner_mean(&display.elements[k], &levels);
-            hi - lo > settings.suspect * mean.max(floor)
-        })
-        .filter(|&k| checked.centres.insert(place(display.elements[k].centre)))
-        .collect();
-    let frames: Vec<(Vec3, Vec3, u32)> = suspects
+    let point = |v: u32| display.vertices[v as usize];
+    // Every probe once: a centroid once, a midpoint once per patch.
+    let mut probes: Vec<(usize, Probe)> = Vec::new();
+    let mut centres = HashSet::new();
+    // Each midpoint's probe, and the elements of its patch on either side
+    // of its edge (the vertex it may become is gathered from a side that
+    // is not enclosed, as at the foot of a box).
+    let mut midpoints: HashMap<(u32, [i64; 3]), usize> = HashMap::new();
+    let mut sides: Vec<Vec<u32>> = Vec::new();
+    for k in (0..display.elements.len()).filter(|&k| receiving(k)) {
+        let e = &display.elements[k];
+        let corners = e.corners();
+        for i in 0..corners.len() {
+            let ends = [corners[i], corners[(i + 1) % corners.len()]];
+            let (a, b) = (point(ends[0]), point(ends[1]));
+            let mid = (e.patch, place(0.5 * (a + b)));
+            if a.distance(b) < settings.min_edge || checked.midpoints.contains(&mid) {
+                continue;
+            }
+            if let Some(&probe) = midpoints.get(&mid) {
+                sides[probe].push(k as u32);
+                continue;
+            }
+            midpoints.insert(mid, probes.len());
+            sides.push(vec![k as u32]);
+            let key = edge_key(&place, a, b);
+            probes.push((k, Probe::Edge { key, ends }));
+        }
+        if !flat(k) {
+            continue;
+        }
+        let (lo, hi) = corner_range(k);
+        let gradient = hi - lo > settings.suspect * corner_mean(e, &levels).max(floor);
+        let centre = place(e.centre);
+        if gradient
+            && longest_edge(display, k) >= settings.min_edge
+            && !checked.centres.contains(&centre)
+            && centres.insert(centre)
+        {
+            sides.push(Vec::new());
+            probes.push((k, Probe::Centre));
+        }
+    }
+    let at = |k: usize, probe: &Probe| -> Vec3 {
+        match probe {
+            Probe::Centre => display.elements[k].centre,
+            Probe::Edge { ends, .. } => 0.5 * (point(ends[0]) + point(ends[1])),
+        }
+    };
+    // Midpoints are gathered as the vertices they may become; centroids
+    // where they lie.
+    let (edges, centre_probes): (Vec<usize>, Vec<usize>) =
+        (0..probes.len()).partition(|&i| matches!(probes[i].1, Probe::Edge { .. }));
+    // An edge's midpoint takes the mean of its ends' normals: on a smooth
+    // surface split into facets, the normal of the surface there.
+    let at_edges: Vec<(Vec3, Vec3, Vec<u32>)> = edges
         .iter()
-        .map(|&k| {
+        .map(|&i| {
+            let (k, probe) = probes[i];
+            let Probe::Edge { ends, .. } = probe else {
+                unreachable!("partitioned")
+            };
             let e = &display.elements[k];
+            let mean = ends.iter().filter_map(|&v| normal_at(v)).sum::<Vec3>();
+            let normal = mean.try_normalize().unwrap_or(e.normal);
+            (at(k, &probe), normal, std::mem::take(&mut sides[i]))
+        })
+        .collect();
+    let at_centres: Vec<(Vec3, Vec3, u32)> = centre_probes
+        .iter()
+        .map(|&i| {
+            let e = &display.elements[probes[i].0];
             (e.centre, e.normal, e.patch)
         })
         .collect();
-    meter.total += frames.len();
-    let at_centres = gather.at_points_metered(&frames, meter)?;
+    meter.total += probes.len();
+    let mut gathered = vec![[0.0f32; 3]; probes.len()];
+    let values = gather.at_element_points_metered(display, &at_edges, meter)?;
+    for (&i, value) in edges.iter().zip(values) {
+        gathered[i] = value;
+    }
+    let values = gather.at_points_metered(&at_centres, meter)?;
+    for (&i, value) in centre_probes.iter().zip(values) {
+        gathered[i] = value;
+    }
     // The gap is judged against the local level: the larger of the
-    // centroid's and the corners' (at least the floor).
-    let gaps: Vec<CentroidGap> = suspects
+    // gathered and the Gouraud value (at least the floor).
+    let gaps: Vec<CentroidGap> = probes
         .iter()
-        .zip(&at_centres)
-        .map(|(&element, &value)| {
-            let centre = luminance(value);
-            let mean = corner_mean(&display.elements[element], &levels);
+        .zip(&gathered)
+        .map(|(&(element, probe), &value)| {
+            let seen = luminance(value);
+            let gouraud = match probe {
+                Probe::Centre => corner_mean(&display.elements[element], &levels),
+                Probe::Edge { ends, .. } => {
+                    0.5 * (levels[ends[0] as usize] + levels[ends[1] as usize])
+                }
+            };
             CentroidGap {
                 element,
-                gap: (centre - mean).abs(),
-                limit: settings.tolerance * centre.max(mean).max(floor),
+                gap: (seen - gouraud).abs(),
+                limit: settings.tolerance * seen.max(gouraud).max(floor),
             }
         })
         .collect();
-    let split = refine::worst_first(display, &gaps, display.elements.len() / 4);
-    Some(
-        split
-            .into_iter()
-            .map(|i| (gaps[i].element, at_centres[i]))
-            .collect(),
-    )
+    let worst = refine::worst_first(display, &gaps, display.elements.len() / 4);
+    // Right places are not looked at again; wrong ones left over budget are.
+    let taken: HashSet<usize> = worst.iter().copied().collect();
+    for (i, (k, probe)) in probes.iter().enumerate() {
+        if gaps[i].gap > gaps[i].limit && !taken.contains(&i) {
+            continue;
+        }
+        let e = &display.elements[*k];
+        match probe {
+            Probe::Centre => checked.centres.insert(place(e.centre)),
+            Probe::Edge { .. } => checked.midpoints.insert((e.patch, place(at(*k, probe)))),
+        };
+    }
+    let mut plan = SplitPlan::default();
+    for i in worst {
+        let (k, probe) = probes[i];
+        match probe {
+            Probe::Centre => plan.cuts.centres.insert(k),
+            Probe::Edge { key, .. } => plan.cuts.edges.insert(key),
+        };
+        plan.gathered.push((display.elements[k].patch, at(k, &probe), gathered[i]));
+    }
+    Some(plan)
 }

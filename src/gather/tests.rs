@@ -7,6 +7,8 @@ use super::*;
 use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::sampling::Pcg32;
 use crate::mesh::testutil::scene;
+use crate::mesh::smooth::place_cells;
+use crate::mesh::split::edge_key;
 use crate::mesh::uniform;
 use crate::scene::{Material, Scene};
 use glam::DVec3;
@@ -407,20 +409,19 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     };
     let mut checked = refine::Checked::default();
     let mut meter = Meter::unwatched();
-    let points = refine::split_points(
-        &s,
-        &display,
-        &values,
-        None,
-        &gather,
-        &refinement,
-        &mut checked,
-        &mut meter,
-    )
-    .unwrap();
-    assert!(!points.is_empty(), "the shadow's elements are split");
+    let next_plan = |gather: &mut FinalGather, checked: &mut refine::Checked, meter: &mut Meter| {
+        refine::split_plan(&s, &display, &values, None, gather, &refinement, checked, meter)
+            .unwrap()
+    };
+    let plan = next_plan(&mut gather, &mut checked, &mut meter);
+    assert!(!plan.is_empty(), "the shadow's elements are split");
     let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
-    for &(k, _) in &points {
+    // The share of the light the floor sees at `p`.
+    let seen_share = |gather: &FinalGather, p: Vec3| {
+        let exact = point_to_polygon(p.as_dvec3(), DVec3::Y, &light) as f32;
+        gather.at_points(&[(p, Vec3::Y, 0)])[0][0] / 0.5 / exact
+    };
+    for &k in &plan.cuts.centres {
         let (patch, p) = (display.elements[k].patch, display.elements[k].centre);
         // Every split is on the floor where the box hides part of the
         // light, or right beside the box; none where the floor sees all.
@@ -431,26 +432,47 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
             assert!(p.y < 0.15, "split at {p} off the floor, above a box's foot");
             continue;
         }
-        let exact = point_to_polygon(p.as_dvec3(), DVec3::Y, &light) as f32;
-        let seen = gather.at_points(&[(p, Vec3::Y, 0)])[0][0] / 0.5;
         assert!(
-            seen < 0.99 * exact || p.x > 0.4,
-            "split at {p}, where the light is seen whole ({seen} of {exact})"
+            seen_share(&gather, p) < 0.99 || p.x > 0.4,
+            "split at {p}, where the light is seen whole"
         );
     }
-    // Looked at once: a second pass on the same mesh gathers nothing new.
-    let again = refine::split_points(
-        &s,
-        &display,
-        &values,
-        None,
-        &gather,
-        &refinement,
-        &mut checked,
-        &mut meter,
-    )
-    .unwrap();
-    assert!(again.is_empty());
+    // Every cut edge reaches the shadow: an end or its midpoint sees part
+    // of the light, or it lies on the box or right beside it.
+    let place = place_cells(&s);
+    for e in &display.elements {
+        let c = e.corners();
+        for i in 0..c.len() {
+            let (a, b) = (display.vertices[c[i] as usize], display.vertices[c[(i + 1) % c.len()] as usize]);
+            if !plan.cuts.edges.contains(&edge_key(&place, a, b)) || e.patch != 0 {
+                continue;
+            }
+            let darkest = [a, 0.5 * (a + b), b]
+                .into_iter()
+                .map(|p| seen_share(&gather, p))
+                .fold(f32::INFINITY, f32::min);
+            assert!(
+                darkest < 0.99 || a.x.max(b.x) > 0.4,
+                "edge {a} to {b} cut, where the light is seen whole"
+            );
+        }
+    }
+    // Looked at once: later passes on the same mesh take only what the
+    // budget left over, never a place again, and then nothing.
+    let (mut edges, mut centres) = (plan.cuts.edges, plan.cuts.centres);
+    let mut passes = 0;
+    loop {
+        let again = next_plan(&mut gather, &mut checked, &mut meter);
+        if again.is_empty() {
+            break;
+        }
+        assert!(again.cuts.edges.is_disjoint(&edges));
+        assert!(again.cuts.centres.is_disjoint(&centres));
+        edges.extend(again.cuts.edges);
+        centres.extend(again.cuts.centres);
+        passes += 1;
+        assert!(passes < 8, "the same mesh keeps asking for cuts");
+    }
 }
 
 #[test]
