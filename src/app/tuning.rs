@@ -244,6 +244,21 @@ pub static TUNING: &[TuningKey] = &[
         set: |j, v| assign(&mut gather_mut(j)?.ray_device, parse_device(v)),
     },
     TuningKey {
+        name: "exact_lights",
+        help: "lights a gathered point takes each with its own shadow rays, those that give it most first; the rest share one estimate (all: every light, as with few lights)",
+        get: |j| match gather(j).exact_lights {
+            usize::MAX => "all".into(),
+            n => n.to_string(),
+        },
+        set: |j, v| {
+            gather_mut(j)?.exact_lights = match v {
+                "all" => usize::MAX,
+                _ => parse_in(v, 1, 1 << 20)?,
+            };
+            Ok(())
+        },
+    },
+    TuningKey {
         name: "display_edge",
         help: "longest element edge of the display mesh the gather shades (auto: half the default element size)",
         get: |j| optional(j.display_edge),

@@ -572,6 +572,7 @@ mod gpu_rays;
 mod hemisphere_rays;
 mod links;
 mod lit_samples;
+mod many_lights;
 pub mod pixels;
 mod point_gather;
 mod receiver;

@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use super::exposure;
 use super::links::{Links, LINKS_BUDGET};
 use super::lit_samples::POINT_RAYS;
+use super::many_lights::{self, FacedLight};
 use super::receiver::Receiver;
 use super::reflected_cache::HarmonicDistance;
 use super::{
@@ -465,6 +466,7 @@ impl Gather<'_> {
         }
         // A gather that records its links opens deeper (`link_opening`).
         let opening = [settings.opening, settings.link_opening][usize::from(links.is_some())];
+        let mut lights: Vec<FacedLight> = Vec::new();
         while let Some(n) = stack.pop() {
             let node = &self.tree.nodes[n as usize];
             if node.patch == at.patch {
@@ -508,6 +510,13 @@ impl Gather<'_> {
             }
             if !take_whole {
                 stack.extend_from_slice(&node.children);
+                continue;
+            }
+            // The lights are ranked by what they give once all are found.
+            if src.emits {
+                if let Some(exact) = at.unoccluded(src) {
+                    lights.push(FacedLight::new(n, src, exact, near));
+                }
                 continue;
             }
             // Near, the emitters' light on the source is taken where the
@@ -561,14 +570,21 @@ impl Gather<'_> {
                     false => links.take(n, ff * kept),
                 }
             }
-            if src.emits {
-                gathered.direct += radiosity * ff;
-            } else {
-                gathered.reflected += radiosity * ff + kept * lit;
-                if wanted.record {
-                    gathered.distance.add(ff, nearest);
-                }
+            gathered.reflected += radiosity * ff + kept * lit;
+            if wanted.record {
+                gathered.distance.add(ff, nearest);
             }
+        }
+        if !lights.is_empty() {
+            gathered.direct += many_lights::direct_light(
+                at,
+                &mut lights,
+                &self.sources,
+                &self.occluders,
+                settings,
+                rng,
+                links,
+            );
         }
         gathered
     }

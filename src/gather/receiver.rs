@@ -43,6 +43,19 @@ impl Receiver {
         let Some(exact) = self.unoccluded(src) else {
             return 0.0;
         };
+        self.visible_form_factor(exact, src, near, occluders, settings, rng)
+    }
+
+    /// [`Self::form_factor`] given `exact`, the unoccluded form factor.
+    pub(super) fn visible_form_factor(
+        &self,
+        exact: f32,
+        src: &Source,
+        near: bool,
+        occluders: &Occluders,
+        settings: &VertexGather,
+        rng: &mut Pcg32,
+    ) -> f32 {
         let rays = if src.emits {
             // A whole light gets them all, its parts their share (near a
             // light its parts are gathered one by one).
@@ -231,7 +244,7 @@ pub(super) fn fan_of(c: &[Vec3]) -> Fan {
 
 /// The point of a fan for (u, w) in the unit square, uniform in area: `u`
 /// picks the fan triangle and the position across it.
-fn fan_point((fan, cdf): (&[(Vec3, Vec3, Vec3)], &[f32]), u: f32, w: f32) -> Vec3 {
+pub(super) fn fan_point((fan, cdf): (&[(Vec3, Vec3, Vec3)], &[f32]), u: f32, w: f32) -> Vec3 {
     let k = cdf.partition_point(|&c| c < u).min(fan.len() - 1);
     let lo = if k == 0 { 0.0 } else { cdf[k - 1] };
     let uu = ((u - lo) / (cdf[k] - lo).max(f32::MIN_POSITIVE)).clamp(0.0, 1.0);

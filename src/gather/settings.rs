@@ -44,6 +44,10 @@ pub struct VertexGather {
     /// come from its own random stream, so the CPU and the GPU trace the
     /// same ones.
     pub ray_device: DirectLight,
+    /// Lights a point takes each with its own shadow rays, the ones that
+    /// give it most first; the rest share one estimate
+    /// ([`many_lights`](super::many_lights)). `usize::MAX`: every light.
+    pub exact_lights: usize,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -84,9 +88,15 @@ impl Default for VertexGather {
             direct_light: DirectLight::Auto,
             hemisphere_rays: HEMISPHERE_RAYS,
             ray_device: DirectLight::Auto,
+            exact_lights: EXACT_LIGHTS,
         }
     }
 }
+
+/// Default [`VertexGather::exact_lights`]. A point under a grid of
+/// ceiling panels gets most of its light from the few above it; sixteen
+/// keeps the second ring of a grid exact too.
+pub const EXACT_LIGHTS: usize = 16;
 
 /// A reflecting leaf whose form factor from the receiver is over the first
 /// value starts to lend the radiosity beside the receiver
