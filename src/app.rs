@@ -16,6 +16,7 @@ use crate::mesh::build::{MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::display::DisplayRequest;
 use crate::mesh;
+use crate::output::lightmap::Density;
 use crate::scene::{self, Camera, Scene};
 use crate::solve::{Progress, SolveSettings};
 use crate::trace::{cat, span_since};
@@ -40,6 +41,9 @@ pub struct Job {
     pub output: Option<PathBuf>,
     /// The lit mesh to write (`.ply`, `.obj`, `.glb`, `.gltf`).
     pub export: Option<PathBuf>,
+    /// Bake the lit mesh's light into a texture atlas too (`--lightmap`):
+    /// only with a `.glb`/`.gltf` export of an untextured scene.
+    pub lightmap: Option<Density>,
     /// A views file (`vkrad --help` gives its form): the lit mesh is also drawn from each
     /// of its cameras, one image each.
     pub views: Option<PathBuf>,
@@ -118,6 +122,7 @@ impl Default for Job {
             scene: String::new(),
             output: None,
             export: None,
+            lightmap: None,
             views: None,
             device: DeviceOptions::default(),
             max_edge: None,
@@ -196,6 +201,34 @@ impl Job {
             mesher: self.display_mesher,
             check: self.check_mesh,
         }
+    }
+}
+
+impl Job {
+    /// Refuses `--lightmap` where it cannot be written, before any work:
+    /// without a glTF export (`.ply` and `.obj` cannot carry a texture),
+    /// or on a textured scene (not done).
+    pub fn check_lightmap(&self, scene: &Scene) -> Result<()> {
+        let Some(density) = self.lightmap else {
+            return Ok(());
+        };
+        let gltf = self.export.as_ref().is_some_and(|p| {
+            p.extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"))
+        });
+        if !gltf {
+            return Err(Error::Invalid(format!(
+                "--lightmap {density} needs --export FILE.glb or FILE.gltf: the lightmap is a \
+                 texture, which only the glTF export carries (.ply and .obj cannot)"
+            )));
+        }
+        if scene.has_textures() {
+            return Err(Error::Invalid(format!(
+                "--lightmap {density}: scenes with textures (map_Kd) are not supported yet; \
+                 export without --lightmap"
+            )));
+        }
+        Ok(())
     }
 }
 

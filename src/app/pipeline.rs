@@ -85,6 +85,7 @@ pub fn run_scene(
     if let Some(export) = &job.export {
         check_output_path(export, MESH_EXTENSIONS)?;
     }
+    job.check_lightmap(&scene)?;
     let views = match &job.views {
         Some(path) => load_views(path, &output)?,
         None => Vec::new(),
@@ -675,7 +676,7 @@ fn write_stage(
     let exposure = job.exposure.unwrap_or_else(|| auto_exposure(&image.pixels));
     save_image(image, output, Some(exposure))?;
     if let Some(export) = &job.export {
-        export_lit_mesh(export, scene, shown_mesh, shown, exposure)?;
+        export_lit_mesh(export, scene, shown_mesh, shown, exposure, job.lightmap)?;
     }
     Ok(exposure)
 }

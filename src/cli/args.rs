@@ -8,6 +8,7 @@ use glam::Vec3;
 
 use crate::gpu::capture::CaptureTarget;
 use crate::gpu::DeviceOptions;
+use crate::output::lightmap::Density;
 use crate::solve::FormFactorMethod;
 
 #[derive(Parser)]
@@ -127,6 +128,12 @@ pub(crate) struct RenderArgs {
     /// image's exposure, and linear radiosity.
     #[arg(long, value_name = "FILE")]
     pub(crate) export: Option<PathBuf>,
+    /// With --export FILE.glb or .gltf: also bake the light into a texture
+    /// atlas (TEXCOORD_1, an embedded 8-bit sRGB PNG shown as the unlit
+    /// base colour): `auto` (about 4 texels per display vertex) or texels
+    /// per scene unit.
+    #[arg(long, value_name = "auto|TEXELS_PER_UNIT")]
+    pub(crate) lightmap: Option<Density>,
     /// Also draw the lit mesh from every camera in a JSON file, one image
     /// each, after one solve: {"views": [{"eye": [x,y,z], "look_at":
     /// [x,y,z], "up": [x,y,z], "fov": degrees, "output": "v1.png"}, ...]}.

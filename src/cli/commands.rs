@@ -93,6 +93,7 @@ pub(crate) fn job_from(args: &RenderArgs) -> Result<Job> {
     let mut job = Job::new(scene);
     job.output = args.output.clone();
     job.export = args.export.clone();
+    job.lightmap = args.lightmap;
     job.views = args.views.clone();
     job.device.selector = args.device.clone();
     job.device.validate = validation_asked();

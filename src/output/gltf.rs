@@ -23,6 +23,14 @@
 //! irradiance / pi over the texture's mean, exposed and clamped), so that
 //! the viewer's colour texel x `COLOR_0` is the image's texture x
 //! irradiance. All primitives share the vertex accessors.
+//!
+//! With a lightmap ([`LightmapLayer`], `--lightmap`) the one primitive
+//! carries the atlas's coordinates as `TEXCOORD_1` (the lightmap's usual
+//! set) and again as `TEXCOORD_0`, and its unlit material's
+//! `baseColorTexture` is the atlas (embedded PNG, 8-bit sRGB, tone-mapped
+//! as `COLOR_0`: HDR is not done), so any viewer shows it. The vertex
+//! colours move to `_COLOR_0`: a viewer multiplies `COLOR_0` into the base
+//! colour, which would count the light twice.
 
 use std::io::Write;
 
@@ -49,6 +57,18 @@ const CHUNK_BIN: u32 = 0x004E_4942;
 const REPEAT: u32 = 10497;
 const CLAMP_TO_EDGE: u32 = 33071;
 const LINEAR: u32 = 9729;
+
+/// A baked lightmap to embed: the mesh passed with it is the lightmap's
+/// (vertices split where its charts meet).
+#[derive(Debug, Clone)]
+pub struct LightmapLayer {
+    /// Per vertex, its place in the atlas (glTF's: from the top-left).
+    pub uv: Vec<[f32; 2]>,
+    /// The atlas as a PNG file's bytes.
+    pub png: Vec<u8>,
+    /// What the mesh's `extras.lightmap` records (size, density, charts).
+    pub extras: Value,
+}
 
 /// An image to embed.
 #[derive(Debug, Clone)]
@@ -186,12 +206,51 @@ impl Builder {
     }
 }
 
+/// The images, samplers and textures embedded so far.
+#[derive(Default)]
+struct Embedded {
+    images: Vec<Value>,
+    samplers: Vec<Value>,
+    textures: Vec<Value>,
+}
+
+impl Embedded {
+    /// Embeds `image` and returns an unlit material named `name` showing
+    /// it as its base colour (`TEXCOORD_0`), filtered linearly.
+    fn material(&mut self, b: &mut Builder, image: &EmbeddedImage, name: String) -> Value {
+        let view = b.blob(&image.png);
+        self.images
+            .push(json!({ "bufferView": view, "mimeType": "image/png", "name": image.name }));
+        let wrap = if image.clamp { CLAMP_TO_EDGE } else { REPEAT };
+        self.samplers.push(json!({
+            "magFilter": LINEAR,
+            "minFilter": LINEAR,
+            "wrapS": wrap,
+            "wrapT": wrap,
+        }));
+        self.textures.push(
+            json!({ "sampler": self.samplers.len() - 1, "source": self.images.len() - 1 }),
+        );
+        json!({
+            "name": name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
+                "baseColorTexture": { "index": self.textures.len() - 1 },
+                "metallicFactor": 0.0,
+                "roughnessFactor": 1.0,
+            },
+            "extensions": { "KHR_materials_unlit": {} },
+        })
+    }
+}
+
 fn build(
     mesh: &Mesh,
     radiosity: &[[f32; 3]],
     exposure: f32,
     name: &str,
     textured: Option<&TexturedLayer>,
+    lightmap: Option<&LightmapLayer>,
 ) -> Gltf {
     let mut b = Builder {
         bin: Vec::new(),
@@ -233,6 +292,7 @@ fn build(
     let colour = b.vec3(&colours, false);
     let radiosity_accessor = b.vec3(radiosity, false);
     let texcoord = textured.map(|t| b.vec2(&t.uv));
+    let lightmap_uv = lightmap.map(|l| b.vec2(&l.uv));
     let mut primitives = Vec::new();
     let mut materials = vec![json!({
         "name": "radiosity (baked vertex colour)",
@@ -243,7 +303,7 @@ fn build(
         },
         "extensions": { "KHR_materials_unlit": {} },
     })];
-    let (mut images, mut samplers, mut textures) = (Vec::new(), Vec::new(), Vec::new());
+    let mut embedded = Embedded::default();
     for (list, indices) in lists.iter().enumerate() {
         // glTF accessors hold at least one element; a texture no element
         // uses has no primitive (the untextured list may be empty too).
@@ -257,31 +317,28 @@ fn build(
             "COLOR_0": colour,
             "_RADIOSITY": radiosity_accessor,
         });
-        let material = if list == 0 {
+        let material = if let (Some(l), Some(uv)) = (lightmap, lightmap_uv) {
+            let colour = attributes
+                .as_object_mut()
+                .and_then(|a| a.remove("COLOR_0"))
+                .unwrap_or_default();
+            attributes["_COLOR_0"] = colour;
+            attributes["TEXCOORD_0"] = json!(uv);
+            attributes["TEXCOORD_1"] = json!(uv);
+            let atlas = EmbeddedImage {
+                name: "lightmap".to_owned(),
+                png: l.png.clone(),
+                clamp: true,
+            };
+            materials[0] = embedded.material(&mut b, &atlas, "radiosity (baked lightmap)".to_owned());
+            0
+        } else if list == 0 {
             0
         } else {
             let image = &textured.expect("a texture list has a layer").images[list - 1];
             attributes["TEXCOORD_0"] = json!(texcoord);
-            let view = b.blob(&image.png);
-            images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": image.name }));
-            let wrap = if image.clamp { CLAMP_TO_EDGE } else { REPEAT };
-            samplers.push(json!({
-                "magFilter": LINEAR,
-                "minFilter": LINEAR,
-                "wrapS": wrap,
-                "wrapT": wrap,
-            }));
-            textures.push(json!({ "sampler": samplers.len() - 1, "source": images.len() - 1 }));
-            materials.push(json!({
-                "name": format!("texture {} x radiosity (baked vertex colour)", image.name),
-                "pbrMetallicRoughness": {
-                    "baseColorFactor": [1.0, 1.0, 1.0, 1.0],
-                    "baseColorTexture": { "index": textures.len() - 1 },
-                    "metallicFactor": 0.0,
-                    "roughnessFactor": 1.0,
-                },
-                "extensions": { "KHR_materials_unlit": {} },
-            }));
+            let name = format!("texture {} x radiosity (baked vertex colour)", image.name);
+            materials.push(embedded.material(&mut b, image, name));
             materials.len() - 1
         };
         primitives.push(json!({
@@ -314,12 +371,21 @@ fn build(
         "bufferViews": b.views,
         "accessors": b.accessors,
     });
-    if !images.is_empty() {
-        json["images"] = json!(images);
-        json["samplers"] = json!(samplers);
-        json["textures"] = json!(textures);
+    if !embedded.images.is_empty() {
+        json["images"] = json!(embedded.images);
+        json["samplers"] = json!(embedded.samplers);
+        json["textures"] = json!(embedded.textures);
+    }
+    if textured.is_some_and(|t| !t.images.is_empty()) {
         json["meshes"][0]["extras"]["COLOR_0 (textured)"] =
             json!("the light the texture multiplies: Kd x irradiance / pi over the texture's mean, times exposure, clamped to [0, 1], linear");
+    }
+    if let Some(l) = lightmap {
+        let extras = &mut json["meshes"][0]["extras"];
+        extras["_COLOR_0"] = extras["COLOR_0"].take();
+        extras.as_object_mut().map(|e| e.remove("COLOR_0"));
+        extras["TEXCOORD_1"] = json!("lightmap coordinates (TEXCOORD_0 repeats them for baseColorTexture)");
+        extras["lightmap"] = l.extras.clone();
     }
     Gltf { json, bin: b.bin }
 }
@@ -333,8 +399,9 @@ pub(super) fn write_glb(
     exposure: f32,
     name: &str,
     textured: Option<&TexturedLayer>,
+    lightmap: Option<&LightmapLayer>,
 ) -> std::io::Result<()> {
-    let Gltf { json, mut bin } = build(mesh, radiosity, exposure, name, textured);
+    let Gltf { json, mut bin } = build(mesh, radiosity, exposure, name, textured, lightmap);
     let mut text = json.to_string().into_bytes();
     while text.len() % 4 != 0 {
         text.push(b' ');
@@ -369,8 +436,9 @@ pub(super) fn write_gltf(
     exposure: f32,
     name: &str,
     textured: Option<&TexturedLayer>,
+    lightmap: Option<&LightmapLayer>,
 ) -> std::io::Result<()> {
-    let Gltf { mut json, bin } = build(mesh, radiosity, exposure, name, textured);
+    let Gltf { mut json, bin } = build(mesh, radiosity, exposure, name, textured, lightmap);
     json["buffers"][0]["uri"] = json!(format!(
         "data:application/octet-stream;base64,{}",
         base64(&bin)

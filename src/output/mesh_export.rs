@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::atomic::write_atomically;
 use super::gltf;
+use super::lightmap::{self, Density, Lightmap};
 use super::tonemap::tonemap;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
@@ -87,20 +88,28 @@ pub fn export_mesh(
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
 ) -> Result<()> {
-    export_textured_mesh(path, mesh, vertex_radiosity, exposure, None)
+    export_textured_mesh(path, mesh, vertex_radiosity, exposure, None, None)
 }
 
-/// [`export_mesh`], with the textures of a glTF export (`.ply` and `.obj`
-/// take only the vertex values).
+/// [`export_mesh`], with the textures of a glTF export, or a lightmap
+/// baked into one (`.ply` and `.obj` take only the vertex values, and
+/// refuse a lightmap; so does a textured mesh: not done).
 pub fn export_textured_mesh(
     path: &Path,
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
     textured: Option<&gltf::TexturedLayer>,
+    lightmap: Option<Density>,
 ) -> Result<()> {
     let format = mesh_format(path)?;
     validate(path, mesh, vertex_radiosity)?;
+    if lightmap.is_some() && (textured.is_some() || !matches!(format, MeshFormat::Glb | MeshFormat::Gltf)) {
+        return Err(Error::Output {
+            path: path.to_path_buf(),
+            what: "--lightmap needs a .glb or .gltf export of an untextured scene".to_owned(),
+        });
+    }
     if let Some(t) = textured {
         let n = mesh.vertices.len();
         if t.uv.len() != n
@@ -142,16 +151,55 @@ pub fn export_textured_mesh(
             let name = path
                 .file_stem()
                 .map_or_else(|| "vkrad".into(), |s| s.to_string_lossy());
+            let baked = lightmap
+                .map(|d| lightmap_layer(path, mesh, vertex_radiosity, exposure, d))
+                .transpose()?;
+            let (mesh, vertex_radiosity, layer) = match &baked {
+                Some((lm, radiosity, layer)) => (&lm.mesh, radiosity.as_slice(), Some(layer)),
+                None => (mesh, vertex_radiosity, None),
+            };
             write_atomically(path, |w| {
                 if format == MeshFormat::Glb {
-                    gltf::write_glb(w, mesh, vertex_radiosity, exposure, &name, textured)
+                    gltf::write_glb(w, mesh, vertex_radiosity, exposure, &name, textured, layer)
                 } else {
-                    gltf::write_gltf(w, mesh, vertex_radiosity, exposure, &name, textured)
+                    gltf::write_gltf(w, mesh, vertex_radiosity, exposure, &name, textured, layer)
                 }
                 .map_err(io)
             })
         }
     }
+}
+
+/// Bakes the lightmap of `mesh`: the lightmap, the radiosity per vertex of
+/// its split mesh, and what glTF embeds.
+fn lightmap_layer(
+    path: &Path,
+    mesh: &Mesh,
+    vertex_radiosity: &[[f32; 3]],
+    exposure: f32,
+    density: Density,
+) -> Result<(Lightmap, Vec<[f32; 3]>, gltf::LightmapLayer)> {
+    let lm = lightmap::build(mesh, vertex_radiosity, density)?;
+    let png = lm.png(exposure).map_err(|what| Error::Output {
+        path: path.to_path_buf(),
+        what: format!("the lightmap: {what}"),
+    })?;
+    let extras = serde_json::json!({
+        "width": lm.atlas.width,
+        "height": lm.atlas.height,
+        "texels_per_unit": f64::from(lm.texels_per_unit),
+        "charts": lm.charts,
+        "covered_texels": lm.atlas.covered(),
+        "input_vertices": mesh.vertices.len(),
+        "texels": "radiance B/pi times exposure, clamped to [0, 1], 8-bit sRGB (not HDR)",
+    });
+    let radiosity = lm.per_vertex(vertex_radiosity);
+    let layer = gltf::LightmapLayer {
+        uv: lm.uv.clone(),
+        png,
+        extras,
+    };
+    Ok((lm, radiosity, layer))
 }
 
 fn write_ply(

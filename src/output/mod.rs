@@ -6,6 +6,7 @@ pub mod atomic;
 pub mod compare;
 pub mod gltf;
 pub mod image_io;
+pub mod lightmap;
 pub mod mesh_export;
 pub mod tonemap;
 

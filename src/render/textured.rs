@@ -13,6 +13,7 @@ use crate::error::{Error, Result};
 use crate::gpu::raster::{LitVertex, TextureInfo, Textures, NO_TEXTURE};
 use crate::mesh::Mesh;
 use crate::output::gltf::{EmbeddedImage, TexturedLayer};
+use crate::output::lightmap::Density;
 use crate::output::mesh_export::export_textured_mesh;
 use crate::scene::Scene;
 
@@ -91,16 +92,18 @@ pub fn gpu_textures(scene: &Scene) -> Textures {
 /// at each vertex (texture x irradiance sampled at the vertices: what a
 /// format without textures can show); a glTF file also embeds the textures
 /// (as PNG) with `TEXCOORD_0`, so that a viewer shows the texture's detail
-/// between the vertices.
+/// between the vertices. `lightmap`: bake the light into a texture atlas
+/// too (glTF of an untextured scene only).
 pub fn export_lit_mesh(
     path: &Path,
     scene: &Scene,
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
+    lightmap: Option<Density>,
 ) -> Result<()> {
     if !scene.has_textures() || vertex_radiosity.len() != mesh.vertices.len() {
-        return export_textured_mesh(path, mesh, vertex_radiosity, exposure, None);
+        return export_textured_mesh(path, mesh, vertex_radiosity, exposure, None, lightmap);
     }
     let pi = std::f32::consts::PI;
     let radiance: Vec<[f32; 3]> = vertex_radiosity.iter().map(|b| b.map(|c| c / pi)).collect();
@@ -121,7 +124,7 @@ pub fn export_lit_mesh(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
     if !gltf {
-        return export_textured_mesh(path, mesh, &shown, exposure, None);
+        return export_textured_mesh(path, mesh, &shown, exposure, None, lightmap);
     }
     // Emitters keep their solved value (a viewer multiplies a texture by
     // the vertex colour; it cannot add the emitted light).
@@ -170,7 +173,7 @@ pub fn export_lit_mesh(
         element_texture,
         images,
     };
-    export_textured_mesh(path, mesh, &shown, exposure, Some(&layer))
+    export_textured_mesh(path, mesh, &shown, exposure, Some(&layer), lightmap)
 }
 
 /// A texture as PNG bytes (RGB, 8 bits: its sRGB texels as read).

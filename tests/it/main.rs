@@ -22,6 +22,7 @@ mod golden;
 mod gpu_rays;
 mod hierarchy;
 mod layout;
+mod lightmap;
 mod memory_limits;
 mod pixels;
 mod seams;
