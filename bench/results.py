@@ -34,6 +34,7 @@ COMMANDS = {
     "gather_cost.json": ("cargo bench --bench gather_cost -- [SCENE...]", "benches/gather_cost.rs"),
     "bench.json": ("cargo run --release -- bench", "src/bench, the `vkrad bench` subcommand"),
     "meshers.json": ("cargo run --release -- bench --meshers", "src/bench, the `vkrad bench` subcommand"),
+    "many-lights.json": ("cd bench/pathtracer && python3 many_lights.py", "bench/pathtracer/many_lights.py"),
     "race-cornell.json": (
         "cd bench/pathtracer && python3 compare.py && python3 compare.py --skip-race --tag=-final "
         "--converge default,1e-1,1e-2 && cd ../.. && python3 bench/plot_race.py",
@@ -633,6 +634,38 @@ def gather_cost_section(linked):
     return lines + ["", "The rows name the scenes the bench was given (built-in names, or the stems of .obj files).", ""]
 
 
+def many_lights_section(linked):
+    doc = load("many-lights.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["many-lights.json"]
+    lines = ["## Many lights", ""]
+    lines += header("many-lights.json", doc,
+                    "One open-plan office lit by N ceiling panels of equal total power "
+                    "(`scenes/generate_scenes.py --offices`), at vkrad's defaults (the 16 lights that give a "
+                    "point most get their own shadow rays, the rest share one estimate) and with "
+                    "`--tune exact_lights=all` (every light its own rays, as before), against Mitsuba 3. "
+                    f"{doc.get('size')}, median of {doc.get('repeats')} runs each; errors less the "
+                    "reference's own noise.", cmd, src)
+    lines.append("")
+    rows = []
+    for r in dicts(doc.get("rows")):
+        d, a = r.get("default") or {}, r.get("exact_lights=all") or {}
+        rows.append([count(r.get("luminaires")), secs(d.get("gather_s")), secs(a.get("gather_s")),
+                     ratio(a.get("gather_s"), d.get("gather_s")), secs(d.get("wall_s")), secs(a.get("wall_s")),
+                     pct(d.get("rel_rmse_lit_corrected")), pct(a.get("rel_rmse_lit_corrected")),
+                     pct(get(r, "reference", "noise_rel_rmse_lit"))])
+    lines += table(["luminaires", "gather s", "gather s, all exact", "all exact / default", "vkrad wall s",
+                    "wall s, all exact", "error", "error, all exact", "reference noise"], rows)
+    k = doc.get("gather_exponent") or {}
+    if num(k.get("default")):
+        lines += ["", f"Gather time grows as N^{k['default']:.2f} at the defaults"
+                  + (f", N^{k['exact_lights=all']:.2f} with every light exact" if num(k.get("exact_lights=all")) else "")
+                  + " (least-squares slope over the rows; issue 45 asks for at most N^0.5)."]
+    lines += [""] + charts(["many-lights.png"], linked)
+    return lines + [""]
+
+
 def bench_section(linked):
     doc = load("bench.json")
     if not doc:
@@ -731,6 +764,7 @@ def main():
     body += memory_section("memory.json", "## Memory against the estimate", linked)
     body += scenes_section(linked)
     body += gather_cost_section(linked)
+    body += many_lights_section(linked)
     body += scaling_section(linked)
     body += bench_section(linked)
     body += meshers_section(linked)
@@ -739,7 +773,7 @@ def main():
         body += h200
         body += ["The H200 runs' scripts and logs are in `bench/h200/` (`gpu_run*.sh`, `run*-log.txt`).", ""]
     handled = {"gallery.json", "memory.json", "scenes.json", "gather_cost.json", "scaling.json", "bench.json",
-               "meshers.json", "h200/memory-h200.json"}
+               "meshers.json", "h200/memory-h200.json", "many-lights.json"}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "views-*.json"))}
