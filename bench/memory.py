@@ -13,6 +13,13 @@ peak is above its estimate (the estimate is meant as an upper bound).
     python3 bench/memory.py cornell rfield     # some of it, by name
     python3 bench/memory.py --large            # add the 95k to 204k-polygon scenes
     python3 bench/memory.py --interiors        # add the dining halls (10k to 200k faces, 1 to 400 lights)
+    python3 bench/memory.py --interiors --limit-gb 4 --timeout 600 --out bench/memory-4gb.json \
+        interior-10k-1 interior-10k-16 interior-50k-64 interior-200k-400
+                                               # as a capped container would run them (RLIMIT_AS)
+
+A run ends with an image, or with a clean error (exit status 1 and a
+message), within --timeout; anything else (a signal, a panic, the
+timeout) is recorded as `outcome` and fails the bench.
 
 The corpus: the built-in scenes, scenes/*.obj, the public scenes under
 ../shared/scenes (when present), and generated letter fields and curved
@@ -82,22 +89,47 @@ def gather_points(r):
     return centres + ((r.get("display_mesh") or {}).get("vertices") or r["mesh"]["vertices"])
 
 
-def run(vkrad, name, scene, out_dir):
+def capped(limit_gb):
+    """A preexec_fn capping the child's address space (None: no cap)."""
+    if not limit_gb:
+        return None
+    import resource
+
+    def cap():
+        b = int(limit_gb * 2**30)
+        resource.setrlimit(resource.RLIMIT_AS, (b, b))
+
+    return cap
+
+
+def run(vkrad, name, scene, out_dir, limit_gb=None, timeout=None):
     report = os.path.join(out_dir, f"{name}.json")
     image = os.path.join(out_dir, f"{name}.exr")
     t = time.time()
-    p = subprocess.run(
-        [vkrad, scene, "--size", "256x256", "-o", image, "--report", report, "--quiet"],
-        capture_output=True,
-        text=True,
-    )
+    try:
+        p = subprocess.run(
+            [vkrad, scene, "--size", "256x256", "-o", image, "--report", report, "--quiet"],
+            capture_output=True,
+            text=True,
+            preexec_fn=capped(limit_gb),
+            timeout=timeout,
+        )
+    except subprocess.TimeoutExpired:
+        return {"scene": name, "outcome": f"timeout after {timeout} s", "error": ["timed out"]}
     wall = time.time() - t
     if p.returncode != 0:
-        return {"scene": name, "error": (p.stderr or p.stdout).strip().splitlines()[-1:]}
+        lines = (p.stderr or p.stdout).strip().splitlines()
+        panicked = any("panicked" in ln for ln in lines)
+        clean = p.returncode == 1 and not panicked
+        outcome = "clean error" if clean else (
+            "panic" if panicked else f"status {p.returncode}" if p.returncode > 0 else f"signal {-p.returncode}")
+        return {"scene": name, "outcome": outcome, "wall_s": round(wall, 2), "error": lines[-1:]}
     r = json.load(open(report))
     m = r["memory"]
     return {
         "scene": name,
+        "outcome": "image",
+        "warnings": r["scene"].get("run_warnings"),
         "patches": r["scene"]["patches"],
         "elements": r["mesh"]["elements"],
         "display_elements": (r.get("display_mesh") or {}).get("elements"),
@@ -122,6 +154,8 @@ def main():
     ap.add_argument("--large", action="store_true", help="add the 95k to 204k-polygon fields and surfaces")
     ap.add_argument("--interiors", action="store_true", help="add the dining halls of generate_scenes.py --interiors")
     ap.add_argument("--out", default=os.path.join(HERE, "memory.json"))
+    ap.add_argument("--limit-gb", type=float, help="cap each run's address space (RLIMIT_AS), as ulimit -v does")
+    ap.add_argument("--timeout", type=float, help="seconds a run may take (past it: a failure)")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="vkrad-memory-") as tmp:
         scaling = os.path.join(tmp, "scaling")
@@ -145,18 +179,22 @@ def main():
             if os.path.sep in scene and not os.path.exists(scene):
                 print(f"skipped {name}: {scene} not found", file=sys.stderr)
                 continue
-            row = run(a.vkrad, name, scene, tmp)
-            print(json.dumps({k: row.get(k) for k in ("scene", "wall_s", "peak_bytes", "estimate_bytes", "error")}), file=sys.stderr)
+            row = run(a.vkrad, name, scene, tmp, a.limit_gb, a.timeout)
+            print(json.dumps({k: row.get(k) for k in ("scene", "outcome", "wall_s", "peak_bytes", "estimate_bytes",
+                                                      "error")}), file=sys.stderr)
             rows.append(row)
-    json.dump({"vkrad": a.vkrad, "size": "256x256", "runs": rows}, open(a.out, "w"), indent=1)
+    json.dump({"vkrad": a.vkrad, "size": "256x256", "limit_gb": a.limit_gb, "timeout_s": a.timeout,
+               "command": "python3 bench/memory.py " + " ".join(sys.argv[1:]), "runs": rows},
+              open(a.out, "w"), indent=1)
     mb = lambda b: f"{b / 2**20:.0f}"
     print("| scene | polygons | elements solved / shown (estimated shown) | wall | peak RSS | estimate | peak / estimate |")
     print("|---|---|---|---|---|---|---|")
     over = []
     for r in rows:
         if "error" in r:
-            print(f"| {r['scene']} | failed: {r['error']} |")
-            over.append(r["scene"])
+            print(f"| {r['scene']} | {r['outcome']}: {r['error']} |")
+            if r["outcome"] != "clean error":
+                over.append(r["scene"])
             continue
         ratio = r["peak_bytes"] / r["estimate_bytes"]
         if ratio > 1:

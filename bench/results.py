@@ -469,20 +469,28 @@ def memory_section(rel, title, linked):
     if not doc:
         return []
     cmd, src = COMMANDS.get(rel, (None, None))
+    cmd = cmd or doc.get("command")
     where = "an NVIDIA H200 with 16 CPU cores" if rel.startswith("h200/") else "lavapipe, 2 cores"
+    cap = (f" Each run's address space capped at {doc['limit_gb']:g} GiB (`RLIMIT_AS`, as `ulimit -v`), "
+           f"{doc.get('timeout_s') or 0:g} s allowed: a run must end with an image or a clean error."
+           if num(doc.get("limit_gb")) else "")
     lines = [title, ""]
     lines += header(rel, doc,
                     f"Peak resident memory of each run (Linux `VmHWM`) against the estimate vkrad makes before "
                     f"any work; `vkrad SCENE --size {doc.get('size', '256x256')}` at its defaults on {where}, "
-                    "single runs. `bench/memory.py` fails if a peak exceeds its estimate.", cmd, src)
+                    f"single runs. `bench/memory.py` fails if a peak exceeds its estimate.{cap}", cmd, src)
     lines.append("")
     rows = []
     for r in dicts(doc.get("runs")):
         p, e = r.get("peak_bytes"), r.get("estimate_bytes")
+        ended = r.get("outcome") or ("image" if num(p) else None)
+        if r.get("error"):
+            ended = f"{ended}: {' '.join(r['error'])}"
         rows.append([r.get("scene"), count(r.get("patches")), count(r.get("elements")), secs(r.get("wall_s")),
-                     secs(r.get("gather_s")), mib(p), mib(e), f"{p / e:.2f}" if num(p) and num(e) and e else None])
+                     secs(r.get("gather_s")), mib(p), mib(e), f"{p / e:.2f}" if num(p) and num(e) and e else None,
+                     ended])
     lines += table(["scene", "polygons", "elements solved", "wall s", "gather s", "peak MiB", "estimate MiB",
-                    "peak / estimate"], rows)
+                    "peak / estimate", "ended with"], rows)
     return lines + [""]
 
 
@@ -762,6 +770,7 @@ def main():
     body += views_section(linked)
     body += walkthrough_section(linked)
     body += memory_section("memory.json", "## Memory against the estimate", linked)
+    body += memory_section("memory-4gb.json", "## Interiors under a 4 GiB address-space cap", linked)
     body += scenes_section(linked)
     body += gather_cost_section(linked)
     body += many_lights_section(linked)
@@ -773,7 +782,8 @@ def main():
         body += h200
         body += ["The H200 runs' scripts and logs are in `bench/h200/` (`gpu_run*.sh`, `run*-log.txt`).", ""]
     handled = {"gallery.json", "memory.json", "scenes.json", "gather_cost.json", "scaling.json", "bench.json",
-               "meshers.json", "h200/memory-h200.json", "many-lights.json"}
+               "meshers.json", "h200/memory-h200.json", "many-lights.json",
+               "memory-4gb.json"}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "views-*.json"))}
