@@ -25,7 +25,6 @@ export const CHROMIUM_FLAGS = [
   '--use-angle=swiftshader',
   '--enable-unsafe-swiftshader',
   '--force-color-profile=srgb',
-  '--disable-gpu-driver-bug-workarounds',
 ];
 
 function parseArgs(argv) {
