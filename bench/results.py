@@ -34,6 +34,7 @@ COMMANDS = {
     "gather_cost.json": ("cargo bench --bench gather_cost -- [SCENE...]", "benches/gather_cost.rs"),
     "bench.json": ("cargo run --release -- bench", "src/bench, the `vkrad bench` subcommand"),
     "meshers.json": ("cargo run --release -- bench --meshers", "src/bench, the `vkrad bench` subcommand"),
+    "lightmap.json": ("python3 bench/lightmap.py", "bench/lightmap.py; needs chromium and npm ci in tools/lightmap"),
     "many-lights.json": ("cd bench/pathtracer && python3 many_lights.py", "bench/pathtracer/many_lights.py"),
     "race-cornell.json": (
         "cd bench/pathtracer && python3 compare.py && python3 compare.py --skip-race --tag=-final "
@@ -642,6 +643,35 @@ def gather_cost_section(linked):
     return lines + ["", "The rows name the scenes the bench was given (built-in names, or the stems of .obj files).", ""]
 
 
+def lightmap_section(linked):
+    doc = load("lightmap.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["lightmap.json"]
+    lines = ["## Lightmaps in a browser", ""]
+    lines += header("lightmap.json", doc,
+                    "`vkrad SCENE --shade mesh --export x.glb --lightmap D` at several densities, the .glb drawn by "
+                    "three.js in headless Chromium (WebGL on SwiftShader, vkrad's 16 sample positions a pixel). "
+                    "Errors are relative RMS in linear light over the surfaces: the lightmap against the same "
+                    "mesh's vertex colours drawn by the same browser (what the atlas loses), and the browser's "
+                    "image against vkrad's `--shade pixels` image.", cmd, src)
+    lines.append("")
+    rows = []
+    for sc in dicts(doc.get("scenes")):
+        vc = get(sc, "browser_vertex_colours_vs_pixels", "surfaces")
+        for r in dicts(sc.get("runs")):
+            at = r.get("atlas") or {}
+            lv = r.get("lightmap_vs_vertex_colours_in_browser_surfaces") or {}
+            rows.append([sc.get("scene"), r.get("density"), f"{at.get('width')}x{at.get('height')}" if at else None,
+                         count(at.get("covered_texels")), count(r.get("display_vertices")),
+                         f"{r['covered_texels_per_vertex']:.2f}" if num(r.get("covered_texels_per_vertex")) else None,
+                         pct(lv.get("rel_rmse")), pct(r.get("browser_vs_pixels_surfaces")), pct(vc)])
+    lines += table(["scene", "texels per unit", "atlas", "covered texels", "display vertices", "texels a vertex",
+                    "lightmap vs vertex colours", "browser vs pixels", "vertex colours vs pixels"], rows)
+    lines += [""] + charts(["lightmap.png", "lightmap-browser-cornell.png"], linked)
+    return lines + [""]
+
+
 def many_lights_section(linked):
     doc = load("many-lights.json")
     if not doc:
@@ -768,6 +798,7 @@ def main():
     body += gal
     body += races(linked)
     body += views_section(linked)
+    body += lightmap_section(linked)
     body += walkthrough_section(linked)
     body += memory_section("memory.json", "## Memory against the estimate", linked)
     body += memory_section("memory-4gb.json", "## Interiors under a 4 GiB address-space cap", linked)
@@ -783,7 +814,7 @@ def main():
         body += ["The H200 runs' scripts and logs are in `bench/h200/` (`gpu_run*.sh`, `run*-log.txt`).", ""]
     handled = {"gallery.json", "memory.json", "scenes.json", "gather_cost.json", "scaling.json", "bench.json",
                "meshers.json", "h200/memory-h200.json", "many-lights.json",
-               "memory-4gb.json"}
+               "memory-4gb.json", "lightmap.json"}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "views-*.json"))}
