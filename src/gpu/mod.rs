@@ -16,6 +16,7 @@ pub mod raster;
 pub mod rays;
 pub mod shaders;
 pub mod shooting;
+mod validation;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
