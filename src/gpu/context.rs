@@ -55,7 +55,7 @@ pub struct DeviceInfo {
 /// The Vulkan instance with its optional debug messenger.
 pub struct Instance {
     /// Keeps the loader library loaded for as long as the instance lives.
-    _entry: ash::Entry,
+    pub(crate) entry: ash::Entry,
     pub(crate) raw: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Kept alive here because the messenger holds a raw pointer to it.
@@ -68,8 +68,9 @@ pub struct Instance {
 
 impl Instance {
     /// Opens the loader and creates an instance; `validate` adds the Khronos
-    /// layer when it is installed.
-    pub fn new(validate: bool) -> Result<Arc<Self>> {
+    /// layer when it is installed; `surface` adds the extensions a window's
+    /// surface needs (empty: headless).
+    pub fn new(validate: bool, surface: &[&CStr]) -> Result<Arc<Self>> {
         // SAFETY: loading the system Vulkan loader; its symbols follow the spec.
         let entry =
             unsafe { ash::Entry::load() }.map_err(|e| Error::NoVulkanLoader(e.to_string()))?;
@@ -100,15 +101,18 @@ impl Instance {
         // Debug utils whenever offered: names and labels for capture tools.
         // SAFETY: plain enumeration call on a loaded entry.
         let offered = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?
-            .iter()
-            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
-        let debug_utils = layer_present || offered;
-        let extensions = if debug_utils {
-            vec![ash::ext::debug_utils::NAME.as_ptr()]
-        } else {
-            vec![]
-        };
+            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?;
+        let offers = |name: &CStr| offered.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
+        if let Some(missing) = surface.iter().find(|n| !offers(n)) {
+            return Err(Error::NoDevice(format!(
+                "the Vulkan loader offers no {missing:?}, which a window on this display needs"
+            )));
+        }
+        let debug_utils = layer_present || offers(ash::ext::debug_utils::NAME);
+        let mut extensions: Vec<_> = surface.iter().map(|n| n.as_ptr()).collect();
+        if debug_utils {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
         let validation = Arc::new(ValidationLog::default());
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
@@ -161,7 +165,7 @@ impl Instance {
             None
         };
         Ok(Arc::new(Instance {
-            _entry: entry,
+            entry,
             raw,
             debug,
             validation,
@@ -360,7 +364,20 @@ impl Device {
             )),
             None => None,
         };
-        let instance = Instance::new(options.validate)?;
+        let instance = Instance::new(options.validate, &[])?;
+        Self::on_instance(instance, options, capture, None)
+    }
+
+    /// The device `options` ask for, on `instance`. `presents`: whether
+    /// queue family `family` of a physical device can present to a
+    /// window's surface (`Device::for_window`); the device then also gets
+    /// VK_KHR_swapchain.
+    pub(crate) fn on_instance(
+        instance: Arc<Instance>,
+        options: &DeviceOptions,
+        capture: Option<(RenderDoc, CaptureTarget)>,
+        presents: Option<&dyn Fn(vk::PhysicalDevice, u32) -> Result<bool>>,
+    ) -> Result<Arc<Self>> {
         let devices = instance.devices()?;
         if devices.is_empty() {
             return Err(Error::NoDevice(
@@ -368,7 +385,7 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info, options, capture)
+        Self::create(instance, physical, info, options, capture, presents)
     }
 
     /// Starts the run's capture when `wanted` says its target is the work
@@ -402,6 +419,7 @@ impl Device {
         info: DeviceInfo,
         options: &DeviceOptions,
         capture: Option<(RenderDoc, CaptureTarget)>,
+        presents: Option<&dyn Fn(vk::PhysicalDevice, u32) -> Result<bool>>,
     ) -> Result<Arc<Self>> {
         let profile = options.profile;
         let queue_family = instance
@@ -410,6 +428,14 @@ impl Device {
                 device: info.name.clone(),
                 what: "no graphics+compute queue".into(),
             })?;
+        if let Some(presents) = presents {
+            if !presents(physical, queue_family)? {
+                return Err(Error::Unsupported {
+                    device: info.name.clone(),
+                    what: "its graphics+compute queue cannot present to the window".into(),
+                });
+            }
+        }
         // SAFETY: physical comes from this instance.
         let props = unsafe { instance.raw.get_physical_device_properties(physical) };
         let families = unsafe {
@@ -460,8 +486,11 @@ impl Device {
         let calibration = options
             .trace
             .as_ref()
-            .and_then(|_| Calibrator::extension(&instance._entry, &instance.raw, physical));
-        let extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+            .and_then(|_| Calibrator::extension(&instance.entry, &instance.raw, physical));
+        let mut extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+        if presents.is_some() {
+            extensions.push(ash::khr::swapchain::NAME.as_ptr());
+        }
         let enabled = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
@@ -630,6 +659,6 @@ fn pick(
 
 /// Lists the devices for `vkrad devices` (no logical device is created).
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
-    let instance = Instance::new(false)?;
+    let instance = Instance::new(false, &[])?;
     Ok(instance.devices()?.into_iter().map(|(_, d)| d).collect())
 }
