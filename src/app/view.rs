@@ -55,19 +55,25 @@ fn no_display(detail: &str) -> Error {
 /// Opens the window and runs until it is closed (or the screenshot is
 /// taken); returns what to print (the screenshot's line, or nothing).
 pub fn view(options: ViewOptions) -> Result<String> {
+    let job = options.job;
+    let scene = load_scene_arg(&job.scene)?;
+    let home = job.camera.apply(default_camera(&scene));
+    crate::render::camera_view_proj(&home, 1.0, scene.extent())?;
     if !display_named() {
         return Err(no_display(
             "neither DISPLAY (X11) nor WAYLAND_DISPLAY (Wayland) is set",
         ));
     }
-    let job = options.job;
-    let scene = load_scene_arg(&job.scene)?;
-    job.check_lightmap(&scene)?;
-    let home = job.camera.apply(default_camera(&scene));
-    crate::render::camera_view_proj(&home, 1.0, scene.extent())?;
-    let event_loop = EventLoop::<Msg>::with_user_event()
-        .build()
-        .map_err(|e| no_display(&format!("the display cannot be opened ({e})")))?;
+    let event_loop = EventLoop::<Msg>::with_user_event().build().map_err(|e| {
+        // winit says where in its source the error arose: not the user's
+        // concern.
+        let said = e.to_string();
+        let why = match said.strip_prefix("os error at ") {
+            Some(rest) => rest.split_once(": ").map_or(rest, |(_, why)| why),
+            None => &said,
+        };
+        no_display(&format!("the display cannot be opened ({why})"))
+    })?;
     let proxy = event_loop.create_proxy();
     let stop = Arc::new(AtomicBool::new(false));
     let plan = Plan {

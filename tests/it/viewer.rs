@@ -99,10 +99,10 @@ fn mean_luma(pixels: &[[u8; 3]]) -> f64 {
 
 #[test]
 fn view_screenshot_under_xvfb_is_the_mesh_render() {
-    if !on_path("xvfb-run") || !on_path("Xvfb") {
+    if !["xvfb-run", "Xvfb", "xauth"].iter().all(|p| on_path(p)) {
         eprintln!(
-            "note: view_screenshot_under_xvfb_is_the_mesh_render skipped: xvfb-run/Xvfb not \
-             installed (apt-get install xvfb xauth)"
+            "note: view_screenshot_under_xvfb_is_the_mesh_render skipped: xvfb-run, Xvfb or \
+             xauth is not installed (apt-get install xvfb xauth)"
         );
         return;
     }
