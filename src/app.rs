@@ -26,6 +26,7 @@ mod pipeline;
 mod report;
 mod tuning;
 mod views;
+pub mod view;
 pub use memory::{peak_resident_bytes, run_estimate, RunEstimate, StageLog};
 pub use pipeline::run_scene;
 pub use report::{write_report, GatherFacts, Report};

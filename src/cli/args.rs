@@ -53,10 +53,13 @@ pub(crate) enum Command {
     /// Run `vkrad SCENE ...` for GPU profiling: the per-pass timestamp
     /// table, and on request a Perfetto timeline or a RenderDoc capture.
     Profile(ProfileArgs),
+    /// Show the solution in a window while it refines, and walk through
+    /// it (mouse and keys; `vkrad view --help` lists them).
+    View(super::view::ViewArgs),
     /// Help on a topic: `tuning` (every --tune key, its default and what it
     /// changes) or a subcommand's name.
     Help {
-        /// `tuning`, or a subcommand (devices, formfactors, mesh, bench, profile).
+        /// `tuning`, or a subcommand (devices, formfactors, mesh, bench, profile, view).
         topic: Option<String>,
     },
 }
@@ -293,7 +296,7 @@ pub(crate) struct FormFactorArgs {
     pub(crate) gpu: DeviceArgs,
 }
 
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
+pub(super) fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<f32> = s
         .split(',')
         .map(|p| p.trim().parse::<f32>())
@@ -317,7 +320,7 @@ fn parse_capture(s: &str) -> Result<CaptureTarget, String> {
     }
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
+pub(super) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| format!("expected WIDTHxHEIGHT like 800x600, got {s:?}"))?;

@@ -11,6 +11,7 @@ mod args;
 mod commands;
 mod print;
 mod progress;
+mod view;
 
 use args::{Cli, Command};
 use progress::INTERRUPTED;
@@ -25,6 +26,7 @@ pub fn main() -> ExitCode {
         Some(Command::Mesh(args)) => commands::mesh_only(args),
         Some(Command::Bench(args)) => commands::bench(args),
         Some(Command::Profile(args)) => commands::profile(args),
+        Some(Command::View(args)) => view::view(args),
         Some(Command::Help { topic }) => commands::help(topic.as_deref()),
         None => commands::render(cli.render),
     };

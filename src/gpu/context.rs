@@ -11,29 +11,11 @@ use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
 
 use super::capture::{CaptureTarget, RenderDoc};
 use super::instrument::{Calibrator, Counters};
+use super::validation::{debug_callback, ValidationLog};
 use crate::error::{Error, Result};
 use crate::trace::Trace;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
-
-/// What the validation layer said. Errors fail tests and `--validate` runs.
-#[derive(Debug, Default)]
-pub struct ValidationLog {
-    messages: Mutex<Vec<String>>,
-}
-
-impl ValidationLog {
-    fn push(&self, message: String) {
-        if let Ok(mut m) = self.messages.lock() {
-            m.push(message);
-        }
-    }
-
-    /// Every validation error reported so far.
-    pub fn errors(&self) -> Vec<String> {
-        self.messages.lock().map(|m| m.clone()).unwrap_or_default()
-    }
-}
 
 /// How to pick and set up the device.
 #[derive(Debug, Clone, Default)]
@@ -73,7 +55,7 @@ pub struct DeviceInfo {
 /// The Vulkan instance with its optional debug messenger.
 pub struct Instance {
     /// Keeps the loader library loaded for as long as the instance lives.
-    _entry: ash::Entry,
+    pub(crate) entry: ash::Entry,
     pub(crate) raw: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
     /// Kept alive here because the messenger holds a raw pointer to it.
@@ -86,8 +68,9 @@ pub struct Instance {
 
 impl Instance {
     /// Opens the loader and creates an instance; `validate` adds the Khronos
-    /// layer when it is installed.
-    pub fn new(validate: bool) -> Result<Arc<Self>> {
+    /// layer when it is installed; `surface` adds the extensions a window's
+    /// surface needs (empty: headless).
+    pub fn new(validate: bool, surface: &[&CStr]) -> Result<Arc<Self>> {
         // SAFETY: loading the system Vulkan loader; its symbols follow the spec.
         let entry =
             unsafe { ash::Entry::load() }.map_err(|e| Error::NoVulkanLoader(e.to_string()))?;
@@ -118,15 +101,18 @@ impl Instance {
         // Debug utils whenever offered: names and labels for capture tools.
         // SAFETY: plain enumeration call on a loaded entry.
         let offered = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?
-            .iter()
-            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
-        let debug_utils = layer_present || offered;
-        let extensions = if debug_utils {
-            vec![ash::ext::debug_utils::NAME.as_ptr()]
-        } else {
-            vec![]
-        };
+            .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?;
+        let offers = |name: &CStr| offered.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
+        if let Some(missing) = surface.iter().find(|n| !offers(n)) {
+            return Err(Error::NoDevice(format!(
+                "the Vulkan loader offers no {missing:?}, which a window on this display needs"
+            )));
+        }
+        let debug_utils = layer_present || offers(ash::ext::debug_utils::NAME);
+        let mut extensions: Vec<_> = surface.iter().map(|n| n.as_ptr()).collect();
+        if debug_utils {
+            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
         let validation = Arc::new(ValidationLog::default());
         let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
             .message_severity(
@@ -179,7 +165,7 @@ impl Instance {
             None
         };
         Ok(Arc::new(Instance {
-            _entry: entry,
+            entry,
             raw,
             debug,
             validation,
@@ -305,53 +291,6 @@ fn kind_rank(kind: &str) -> u32 {
     }
 }
 
-unsafe extern "system" fn debug_callback(
-    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
-    _types: vk::DebugUtilsMessageTypeFlagsEXT,
-    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
-    user: *mut c_void,
-) -> vk::Bool32 {
-    // SAFETY: the layer passes valid callback data for the call's duration;
-    // `user` is the ValidationLog the Instance keeps alive.
-    let mut message = unsafe {
-        data.as_ref()
-            .and_then(|d| d.message_as_c_str())
-            .map(|m| m.to_string_lossy().into_owned())
-            .unwrap_or_default()
-    };
-    // The command-buffer labels open where the message arose: the pass and
-    // shot (profiler.rs) it came from.
-    // SAFETY: as above; the layer's label array holds cmd_buf_label_count
-    // valid labels.
-    let mut labels: Vec<String> = unsafe {
-        data.as_ref()
-            .filter(|d| d.cmd_buf_label_count > 0 && !d.p_cmd_buf_labels.is_null())
-            .map(|d| std::slice::from_raw_parts(d.p_cmd_buf_labels, d.cmd_buf_label_count as usize))
-            .unwrap_or_default()
-            .iter()
-            .filter_map(|l| l.label_name_as_c_str())
-            .map(|n| n.to_string_lossy().into_owned())
-            .collect()
-    };
-    // Innermost first, as the layer lists them; outermost first here. This
-    // layer lists each label twice (both entries of its label stack), so
-    // repeats in a row are shown once.
-    labels.reverse();
-    labels.dedup();
-    if !labels.is_empty() {
-        message.push_str(&format!(" [command-buffer labels: {}]", labels.join(" > ")));
-    }
-    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
-        eprintln!("vulkan validation error: {message}");
-        if let Some(log) = unsafe { (user as *const ValidationLog).as_ref() } {
-            log.push(message);
-        }
-    } else if std::env::var_os("VKRAD_VK_WARNINGS").is_some() {
-        eprintln!("vulkan validation warning: {message}");
-    }
-    vk::FALSE
-}
-
 /// Image formats the passes use, with the features they need.
 const REQUIRED_FORMATS: [(vk::Format, vk::FormatFeatureFlags, &str); 3] = [
     (
@@ -425,7 +364,20 @@ impl Device {
             )),
             None => None,
         };
-        let instance = Instance::new(options.validate)?;
+        let instance = Instance::new(options.validate, &[])?;
+        Self::on_instance(instance, options, capture, None)
+    }
+
+    /// The device `options` ask for, on `instance`. `presents`: whether
+    /// queue family `family` of a physical device can present to a
+    /// window's surface (`Device::for_window`); the device then also gets
+    /// VK_KHR_swapchain.
+    pub(crate) fn on_instance(
+        instance: Arc<Instance>,
+        options: &DeviceOptions,
+        capture: Option<(RenderDoc, CaptureTarget)>,
+        presents: Option<&dyn Fn(vk::PhysicalDevice, u32) -> Result<bool>>,
+    ) -> Result<Arc<Self>> {
         let devices = instance.devices()?;
         if devices.is_empty() {
             return Err(Error::NoDevice(
@@ -433,7 +385,7 @@ impl Device {
             ));
         }
         let (physical, info) = pick(&devices, options.selector.as_deref())?;
-        Self::create(instance, physical, info, options, capture)
+        Self::create(instance, physical, info, options, capture, presents)
     }
 
     /// Starts the run's capture when `wanted` says its target is the work
@@ -467,6 +419,7 @@ impl Device {
         info: DeviceInfo,
         options: &DeviceOptions,
         capture: Option<(RenderDoc, CaptureTarget)>,
+        presents: Option<&dyn Fn(vk::PhysicalDevice, u32) -> Result<bool>>,
     ) -> Result<Arc<Self>> {
         let profile = options.profile;
         let queue_family = instance
@@ -475,6 +428,14 @@ impl Device {
                 device: info.name.clone(),
                 what: "no graphics+compute queue".into(),
             })?;
+        if let Some(presents) = presents {
+            if !presents(physical, queue_family)? {
+                return Err(Error::Unsupported {
+                    device: info.name.clone(),
+                    what: "its graphics+compute queue cannot present to the window".into(),
+                });
+            }
+        }
         // SAFETY: physical comes from this instance.
         let props = unsafe { instance.raw.get_physical_device_properties(physical) };
         let families = unsafe {
@@ -525,8 +486,11 @@ impl Device {
         let calibration = options
             .trace
             .as_ref()
-            .and_then(|_| Calibrator::extension(&instance._entry, &instance.raw, physical));
-        let extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+            .and_then(|_| Calibrator::extension(&instance.entry, &instance.raw, physical));
+        let mut extensions: Vec<_> = calibration.iter().map(|(name, ..)| name.as_ptr()).collect();
+        if presents.is_some() {
+            extensions.push(ash::khr::swapchain::NAME.as_ptr());
+        }
         let enabled = vk::PhysicalDeviceFeatures::default().pipeline_statistics_query(statistics);
         let create_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
@@ -695,6 +659,6 @@ fn pick(
 
 /// Lists the devices for `vkrad devices` (no logical device is created).
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
-    let instance = Instance::new(false)?;
+    let instance = Instance::new(false, &[])?;
     Ok(instance.devices()?.into_iter().map(|(_, d)| d).collect())
 }

@@ -11,12 +11,17 @@ pub mod instrument;
 pub mod item;
 pub mod memory;
 pub mod pipeline;
+pub mod present;
 pub mod profiler;
 pub mod raster;
 pub mod rays;
 pub mod shaders;
 pub mod shooting;
+pub mod surface;
+pub mod swapchain;
+mod validation;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
+pub use surface::WindowHandles;
 pub use profiler::StageTimes;

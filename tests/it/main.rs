@@ -32,6 +32,7 @@ mod smooth;
 mod stages;
 mod textures;
 mod trace;
+mod viewer;
 mod views;
 mod visibility;
 mod watertight;
