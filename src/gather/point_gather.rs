@@ -421,9 +421,14 @@ impl Gather<'_> {
         // drawn from the point's stream, whoever traces them.
         if wanted.reflected && self.hemisphere_rays.any() {
             let distance = wanted.record.then_some(&mut gathered.distance);
-            let links = links.as_deref_mut();
-            let by_rays = self.by_hemisphere_rays(at, rng, ahead, distance, links);
-            gathered.reflected += by_rays.reflected;
+            let linking = links.is_some();
+            let by_rays = self.by_hemisphere_rays(at, rng, ahead, distance, links.as_deref_mut());
+            // A point that records its links keeps its first rays: the
+            // later passes replay them with their weights.
+            gathered.reflected += match linking {
+                true => by_rays.reflected,
+                false => self.more_rays_where_noisy(at, &by_rays, rng),
+            };
             if wanted.record {
                 gathered.clearance = gathered.clearance.min(by_rays.clearance);
             }

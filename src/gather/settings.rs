@@ -48,6 +48,11 @@ pub struct VertexGather {
     /// give it most first; the rest share one estimate
     /// ([`many_lights`](super::many_lights)). `usize::MAX`: every light.
     pub exact_lights: usize,
+    /// A point whose hemisphere rays' estimate has a relative standard
+    /// error above this sends more rays
+    /// ([`NOISE_TARGET`](super::hemisphere_rays::NOISE_TARGET));
+    /// `f32::INFINITY`: never.
+    pub ray_noise: f32,
 }
 
 /// Which light [`FinalGather::light_at_points`] gathers.
@@ -89,6 +94,7 @@ impl Default for VertexGather {
             hemisphere_rays: HEMISPHERE_RAYS,
             ray_device: DirectLight::Auto,
             exact_lights: EXACT_LIGHTS,
+            ray_noise: super::hemisphere_rays::NOISE_TARGET,
         }
     }
 }

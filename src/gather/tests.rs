@@ -1125,17 +1125,31 @@ fn reflected_light_gathered_by_hemisphere_rays_agrees_with_a_brute_force_gather(
         // Measured: within 0.3% (-0.27% on the floor).
         assert!(off.abs() < 0.01, "kind {k} off by {:.3}%", 100.0 * off);
     }
-    // Per point, the rays' noise: 256 rays over a view of a few levels
-    // (measured 2.5%).
-    let rms = (fast
-        .iter()
-        .zip(&slow)
-        .map(|(f, g)| ((f[0] - g[0]) as f64).powi(2))
-        .sum::<f64>()
-        / slow.iter().map(|g| (g[0] as f64).powi(2)).sum::<f64>())
-    .sqrt();
-    eprintln!("per point rel. RMS {:.3}%", 100.0 * rms);
-    assert!(rms < 0.05, "per point rel. RMS {:.3}%", 100.0 * rms);
+    // Per point, the rays' noise: 256 rays over a view of a few levels,
+    // more where they disagree (measured 1.26%; 2.5% with 256 at every
+    // point).
+    let rms = |fast: &[[f32; 3]]| {
+        (fast
+            .iter()
+            .zip(&slow)
+            .map(|(f, g)| ((f[0] - g[0]) as f64).powi(2))
+            .sum::<f64>()
+            / slow.iter().map(|g| (g[0] as f64).powi(2)).sum::<f64>())
+        .sqrt()
+    };
+    let fixed = VertexGather {
+        ray_noise: f32::INFINITY,
+        ..by_rays
+    };
+    let fixed = FinalGather::new(&s, &mesh, &tree, &b, &fixed).at_points(&frames);
+    let (adaptive, fixed) = (rms(&fast), rms(&fixed));
+    eprintln!(
+        "per point rel. RMS {:.3}%, {:.3}% with the same rays everywhere",
+        100.0 * adaptive,
+        100.0 * fixed
+    );
+    assert!(adaptive < 0.02, "per point rel. RMS {:.3}%", 100.0 * adaptive);
+    assert!(adaptive < 0.7 * fixed, "more rays where noisy: {adaptive} against {fixed}");
 }
 
 #[test]
