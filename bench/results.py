@@ -683,8 +683,11 @@ def many_lights_section(linked):
                     "(`scenes/generate_scenes.py --offices`), at vkrad's defaults (the 16 lights that give a "
                     "point most get their own shadow rays, the rest share one estimate) and with "
                     "`--tune exact_lights=all` (every light its own rays, as before), against Mitsuba 3. "
-                    f"{doc.get('size')}, median of {doc.get('repeats')} runs each; errors less the "
-                    "reference's own noise.", cmd, src)
+                    f"{doc.get('size')}, "
+                    + ("single runs side by side, the two variants one after the other; with one light they do "
+                       "the same work, so their difference there is the runs' own spread"
+                       if doc.get("repeats") == 1 else f"median of {doc.get('repeats')} runs each, the variants "
+                       "alternating") + "; errors less the reference's own noise.", cmd, src)
     lines.append("")
     rows = []
     for r in dicts(doc.get("rows")):
