@@ -16,7 +16,7 @@ use crate::mesh::build::{MeshSettings, Mesher};
 use crate::mesh::discontinuity::ShadowDetail;
 use crate::mesh::display::DisplayRequest;
 use crate::mesh;
-use crate::output::lightmap::Density;
+use crate::output::lightmap::{Density, MAX_ATLAS_SIDE};
 use crate::scene::{self, Camera, Scene};
 use crate::solve::{Progress, SolveSettings};
 use crate::trace::{cat, span_since};
@@ -228,6 +228,24 @@ impl Job {
                 "--lightmap {density}: scenes with textures (map_Kd) are not supported yet; \
                  export without --lightmap"
             )));
+        }
+        // The atlas holds at least a texel per density^-2 of surface: a
+        // density past that cannot fit, which is known before any work
+        // (the packing itself is only tried after the solve and gather).
+        if let Density::TexelsPerUnit(d) = density {
+            let area = f64::from(scene.total_area());
+            let most = f64::from(MAX_ATLAS_SIDE) / area.max(f64::MIN_POSITIVE).sqrt();
+            if f64::from(d) > most {
+                let area = match area >= 10.0 {
+                    true => format!("{area:.0}"),
+                    false => format!("{area:.4}"),
+                };
+                return Err(Error::Invalid(format!(
+                    "--lightmap {d}: the scene's {area} square units of surface need over \
+                     {MAX_ATLAS_SIDE}x{MAX_ATLAS_SIDE} texels at that density; at most \
+                     {most:.4} texels per unit can fit (fewer, with the gutters), or use auto"
+                )));
+            }
         }
         Ok(())
     }

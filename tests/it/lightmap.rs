@@ -280,6 +280,29 @@ fn a_lightmap_without_a_gltf_export_is_refused() {
         .unwrap();
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("texels per scene unit"));
+    // Too dense for any atlas: said before the solve, not after it (the
+    // Cornell box's surface is about 1.9 million square units: at most
+    // about 2.9 texels per unit fit in 4096 x 4096).
+    let dense = Command::new(env!("CARGO_BIN_EXE_vkrad"))
+        .args([
+            "cornell",
+            "--export",
+            "x.glb",
+            "--lightmap",
+            "8",
+            "-o",
+            "x.png",
+        ])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&dense.stderr);
+    assert!(!dense.status.success(), "{stderr}");
+    assert!(stderr.contains("texels per unit can fit"), "{stderr}");
+    assert!(
+        std::fs::read_dir(&dir).unwrap().next().is_none(),
+        "no work done"
+    );
 }
 
 /// The Khronos glTF validator on `path`, where node and the npm package
