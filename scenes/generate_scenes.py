@@ -353,6 +353,20 @@ def surfaces_scene(polygons, out_dir, name):
     return obj.faces
 
 
+def room(obj, width, depth, height):
+    """A box room from the origin to (width, height, depth), every face
+    seen from inside: groups floor, ceiling and walls of those materials."""
+    obj.group("floor", "floor")
+    obj.face([(0, 0, 0), (0, 0, depth), (width, 0, depth), (width, 0, 0)])
+    obj.group("ceiling", "ceiling")
+    obj.face([(0, height, 0), (width, height, 0), (width, height, depth), (0, height, depth)])
+    obj.group("walls", "wall")
+    obj.face([(0, 0, 0), (width, 0, 0), (width, height, 0), (0, height, 0)])
+    obj.face([(0, 0, depth), (0, height, depth), (width, height, depth), (width, 0, depth)])
+    obj.face([(0, 0, 0), (0, height, 0), (0, height, depth), (0, 0, depth)])
+    obj.face([(width, 0, 0), (width, 0, depth), (width, height, depth), (width, height, 0)])
+
+
 def interior_scene(polygons, luminaires, out_dir, name):
     """A dining hall of about `polygons` faces lit by `luminaires` small
     square lights just under the ceiling: the kind of interior people
@@ -379,16 +393,7 @@ def interior_scene(polygons, luminaires, out_dir, name):
         % (0.3, depth - 0.3, width / 2, depth / 2),
         name + ".mtl",
     )
-    # The room, every face seen from inside.
-    obj.group("floor", "floor")
-    obj.face([(0, 0, 0), (0, 0, depth), (width, 0, depth), (width, 0, 0)])
-    obj.group("ceiling", "ceiling")
-    obj.face([(0, height, 0), (width, height, 0), (width, height, depth), (0, height, depth)])
-    obj.group("walls", "wall")
-    obj.face([(0, 0, 0), (width, 0, 0), (width, height, 0), (0, height, 0)])
-    obj.face([(0, 0, depth), (0, height, depth), (width, height, depth), (width, 0, depth)])
-    obj.face([(0, 0, 0), (0, height, 0), (0, height, depth), (0, 0, depth)])
-    obj.face([(width, 0, 0), (width, 0, depth), (width, height, depth), (width, height, 0)])
+    room(obj, width, depth, height)
     up, ux, uz = (0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, -1.0)
     for k in range(tables):
         cx = 1.0 + cell * (k % cols) + cell / 2
@@ -476,15 +481,7 @@ def office_scene(luminaires, out_dir, name):
         "eye 0.5 1.6 9.5 look_at 9 0.8 3 up 0 1 0 fov 65",
         name + ".mtl",
     )
-    obj.group("floor", "floor")
-    obj.face([(0, 0, 0), (0, 0, depth), (width, 0, depth), (width, 0, 0)])
-    obj.group("ceiling", "ceiling")
-    obj.face([(0, height, 0), (width, height, 0), (width, height, depth), (0, height, depth)])
-    obj.group("walls", "wall")
-    obj.face([(0, 0, 0), (width, 0, 0), (width, height, 0), (0, height, 0)])
-    obj.face([(0, 0, depth), (0, height, depth), (width, height, depth), (width, 0, depth)])
-    obj.face([(0, 0, 0), (0, height, 0), (0, height, depth), (0, 0, depth)])
-    obj.face([(width, 0, 0), (width, 0, depth), (width, height, depth), (width, height, 0)])
+    room(obj, width, depth, height)
     for row in range(4):
         z = 1.8 + 2.2 * row
         for col in range(6):
