@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 
+use crate::app::CameraOverride;
 use crate::gpu::capture::CaptureTarget;
 use crate::gpu::DeviceOptions;
 use crate::output::lightmap::Density;
@@ -147,19 +148,8 @@ pub(crate) struct RenderArgs {
     /// Image size [default: 800x800].
     #[arg(long, value_name = "WxH", value_parser = parse_size)]
     pub(crate) size: Option<(u32, u32)>,
-    /// Camera position (default: the scene's `# vkrad camera` line, or an
-    /// automatic view of the whole scene).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) eye: Option<Vec3>,
-    /// Point the camera looks at.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) look_at: Option<Vec3>,
-    /// Camera up direction.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) up: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEGREES")]
-    pub(crate) fov: Option<f32>,
+    #[command(flatten)]
+    pub(crate) camera: CameraArgs,
     /// Exposure multiplier for PNG and exported colours (default: automatic,
     /// the 99th percentile to white).
     #[arg(long)]
@@ -194,6 +184,36 @@ pub(crate) struct RenderArgs {
     /// lists every key with its default.
     #[arg(long, value_name = "KEY=VALUE")]
     pub(crate) tune: Vec<String>,
+}
+
+/// The camera options of the main command and `vkrad view`.
+#[derive(Args)]
+pub(crate) struct CameraArgs {
+    /// Camera position (default: the scene's `# vkrad camera` line, or an
+    /// automatic view of the whole scene).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) eye: Option<Vec3>,
+    /// Point the camera looks at.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) look_at: Option<Vec3>,
+    /// Camera up direction.
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
+    pub(crate) up: Option<Vec3>,
+    /// Vertical field of view in degrees.
+    #[arg(long, value_name = "DEGREES")]
+    pub(crate) fov: Option<f32>,
+}
+
+impl CameraArgs {
+    /// What the options change of the scene's camera.
+    pub(crate) fn overrides(&self) -> CameraOverride {
+        CameraOverride {
+            eye: self.eye,
+            look_at: self.look_at,
+            up: self.up,
+            fov_y_deg: self.fov,
+        }
+    }
 }
 
 #[derive(Args)]

@@ -20,7 +20,7 @@ use super::print::{
     print_scene_warnings, print_summary, FormFactorOutput,
 };
 use super::progress::{install_interrupt_handler, ProgressLine, StopTarget, INTERRUPTED};
-use crate::app::{run_scene, tune, CameraOverride, Job, TUNING};
+use crate::app::{run_scene, tune, Job, TUNING};
 use crate::gather::pixels::Shade;
 use crate::gpu::capture::CaptureTarget;
 use crate::gpu::{self, Device, DeviceOptions};
@@ -110,12 +110,7 @@ pub(crate) fn job_from(args: &RenderArgs) -> Result<Job> {
             job.wireframe = true;
         }
     }
-    job.camera = CameraOverride {
-        eye: args.eye,
-        look_at: args.look_at,
-        up: args.up,
-        fov_y_deg: args.fov,
-    };
+    job.camera = args.camera.overrides();
     if let Some(size) = args.size {
         job.size = size;
     }

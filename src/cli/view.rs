@@ -4,11 +4,10 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use clap::Args;
-use glam::Vec3;
 
-use super::args::{parse_size, parse_vec3, validation_asked};
+use super::args::{parse_size, validation_asked, CameraArgs};
 use crate::app::view::{view as run_viewer, Screenshot, ViewOptions};
-use crate::app::{tune, CameraOverride, Job};
+use crate::app::{tune, Job};
 
 /// The viewer's controls, as `vkrad view --help` lists them.
 const CONTROLS: &str = "Controls:\n  \
@@ -44,18 +43,9 @@ pub(crate) struct ViewArgs {
     /// (the solve's own values, no final gather) instead of the final picture.
     #[arg(long, value_name = "N", requires = "screenshot", value_parser = clap::value_parser!(u64).range(1..))]
     pub(crate) at_shots: Option<u64>,
-    /// Starting camera position (default: the scene's camera).
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) eye: Option<Vec3>,
-    /// Point the starting camera looks at.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) look_at: Option<Vec3>,
-    /// Camera up direction.
-    #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3)]
-    pub(crate) up: Option<Vec3>,
-    /// Vertical field of view in degrees.
-    #[arg(long, value_name = "DEGREES")]
-    pub(crate) fov: Option<f32>,
+    /// The starting camera.
+    #[command(flatten)]
+    pub(crate) camera: CameraArgs,
     /// Exposure multiplier (default: judged on the first preview, then the
     /// final run's automatic exposure).
     #[arg(long)]
@@ -76,12 +66,7 @@ pub(crate) fn view(args: ViewArgs) -> Result<()> {
     let mut job = Job::new(args.scene);
     job.device.selector = args.device;
     job.device.validate = validation_asked();
-    job.camera = CameraOverride {
-        eye: args.eye,
-        look_at: args.look_at,
-        up: args.up,
-        fov_y_deg: args.fov,
-    };
+    job.camera = args.camera.overrides();
     if let Some(size) = args.size {
         job.size = size;
     }
