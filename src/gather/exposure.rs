@@ -174,18 +174,25 @@ pub(super) fn unenclosed_points(
 ) {
     // Tested a step further toward the patch's centre than `frames` goes:
     // a hair inside a box, every ray would start within the ray tracer's
-    // epsilon of its wall and pass for escaping.
+    // epsilon of its wall and pass for escaping. And tested where `frames`
+    // goes too: a contact line's vertices lie up to about 1e-4 off the
+    // wall's plane (rounding in the mesher), and one on the wall's side
+    // moved a hair toward a centre far along the line stays inside the
+    // wall, where it read half its direct light and no reflected light
+    // (rfield: dark blotches at the letters' feet).
     let enclosed: Vec<bool> = frames
         .par_iter()
         .zip(corners.par_iter())
         .enumerate()
-        .map(|(k, (&(_, n, patch), &corner))| {
+        .map(|(k, (&(at, n, patch), &corner))| {
             let Some(surface) = scene.patches.get(patch as usize) else {
                 return false;
             };
             let p = corner + ELEMENT_INSET * (surface.centroid() - corner);
             let mut rng = Pcg32::new(0x0e9c_105e, k as u64);
-            encloses(scene, occluders, p, n, tangent_frame(n), &mut rng)
+            let frame = tangent_frame(n);
+            encloses(scene, occluders, p, n, frame, &mut rng)
+                || encloses(scene, occluders, at, n, frame, &mut rng)
         })
         .collect();
     if !enclosed.contains(&true) {
@@ -199,23 +206,28 @@ pub(super) fn unenclosed_points(
         .filter(|(_, (_, &shut))| shut)
         .for_each(|(k, ((frame, &corner), _))| {
             let mut rng = Pcg32::new(0x0e9c_105f, k as u64);
-            for e in around(k) {
-                let el = &display.elements[e as usize];
-                if el.patch != frame.2 {
-                    continue;
-                }
-                let p = corner + ELEMENT_INSET * (el.centre - corner);
-                if !encloses(
-                    scene,
-                    occluders,
-                    p,
-                    frame.1,
-                    tangent_frame(frame.1),
-                    &mut rng,
-                ) {
-                    frame.0 = p;
-                    return;
-                }
+            let (normal, tangents) = (frame.1, tangent_frame(frame.1));
+            // The open elements around it, as the ways toward their centres.
+            let open: Vec<(Vec3, Vec3)> = around(k)
+                .into_iter()
+                .map(|e| &display.elements[e as usize])
+                .filter(|el| el.patch == frame.2)
+                .map(|el| {
+                    let p = corner + ELEMENT_INSET * (el.centre - corner);
+                    (p, (el.centre - corner).normalize_or_zero())
+                })
+                .filter(|&(p, _)| !encloses(scene, occluders, p, normal, tangents, &mut rng))
+                .collect();
+            // The one in the middle of the open side: at the corner of a
+            // box's foot, where the light on one side (beside the box)
+            // and on the other (in its shadow) differ, the value between
+            // them, not either.
+            let middle: Vec3 = open.iter().map(|&(_, way)| way).sum();
+            if let Some(&(p, _)) = open
+                .iter()
+                .max_by(|a, b| a.1.dot(middle).total_cmp(&b.1.dot(middle)))
+            {
+                frame.0 = p;
             }
         });
 }

@@ -198,12 +198,17 @@ fn box_on_the_floor() -> (Scene, Vec<Vec3>) {
 
 /// [`box_on_the_floor`] with the floor running from `x0` to `x1`.
 fn box_on_a_floor(x0: f32, x1: f32) -> (Scene, Vec<Vec3>) {
+    box_on_a_floor_running_to(x0, x1, 2.0)
+}
+
+/// [`box_on_a_floor`] with the floor running from z = -2 to `z1`.
+fn box_on_a_floor_running_to(x0: f32, x1: f32, z1: f32) -> (Scene, Vec<Vec3>) {
     let floor = facing(
         vec![
             Vec3::new(x0, 0.0, -2.0),
             Vec3::new(x1, 0.0, -2.0),
-            Vec3::new(x1, 0.0, 2.0),
-            Vec3::new(x0, 0.0, 2.0),
+            Vec3::new(x1, 0.0, z1),
+            Vec3::new(x0, 0.0, z1),
         ],
         Vec3::Y,
     );
@@ -311,6 +316,49 @@ fn a_vertex_at_the_foot_of_a_box_reads_the_floor_beside_it() {
         );
     }
     assert!(feet >= 4, "{feet} vertices on the foot");
+}
+
+#[test]
+fn a_foot_vertex_rounded_into_the_box_still_reads_the_floor_beside_it() {
+    // The discontinuity mesher leaves a contact line's vertices a little
+    // off the wall's plane (about 1e-4 on rfield). One on the box's side,
+    // moved a hair toward a floor centre far along the line, stayed inside
+    // the box and read its light through the wall's back (rfield: the
+    // letters' feet read half their light, blotches of -30%).
+    // The floor's centre (x = -0.4, z = 4.4) lies beside the box and far
+    // along its foot (x = 0.6): a foot vertex moves 1e-4 toward it.
+    let (s, light) = box_on_a_floor_running_to(-3.6, 2.8, 10.8);
+    let (mesh, tree, b, settings) = direct_gather(&s);
+    let into_the_box = 3.0 * Occluders::new(&s).epsilon();
+    // Elements of 0.2: a hundredth of the way into one clears the box.
+    let mut display = uniform(&s, 0.2);
+    let feet: Vec<usize> = (0..display.vertices.len())
+        .filter(|&v| {
+            let p = display.vertices[v];
+            (p.x - 0.6).abs() < 1e-5
+                && p.y == 0.0
+                && p.z.abs() <= 0.3
+                && display
+                    .elements
+                    .iter()
+                    .any(|e| e.patch == 0 && e.corners().contains(&(v as u32)))
+        })
+        .collect();
+    assert!(feet.len() >= 3, "{} vertices on the foot", feet.len());
+    for &v in &feet {
+        display.vertices[v].x += into_the_box;
+    }
+    let got = gather_vertices(&s, &mesh, &tree, &b, &display, &settings);
+    let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
+    for &v in &feet {
+        let foot = Vec3::new(0.6, 0.0, display.vertices[v].z);
+        let exact = 0.5 * point_to_polygon(foot.as_dvec3(), DVec3::Y, &light) as f32;
+        assert!(
+            (got[v][0] - exact).abs() <= 1e-2 * exact,
+            "foot at {foot}: {} vs {exact}",
+            got[v][0]
+        );
+    }
 }
 
 #[test]
