@@ -567,6 +567,7 @@ fn is_even(lo: f32, hi: f32, uniformity: f32) -> bool {
 mod clusters;
 pub mod display;
 mod exposure;
+mod facets;
 mod gpu_direct;
 mod gpu_rays;
 mod hemisphere_rays;

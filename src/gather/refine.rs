@@ -13,16 +13,12 @@ use std::collections::{HashMap, HashSet};
 use glam::Vec3;
 
 use super::{FinalGather, Meter};
-use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 use crate::mesh::refine::{self, corner_mean, longest_edge, mean_receiver_level, CentroidGap};
 use crate::mesh::split::{edge_key, Cuts, EdgeKey};
-
-/// Corners whose shared normal is within about 0.25 degrees of their
-/// element's count as flat.
-const FLAT_COSINE: f32 = 0.99999;
 
 /// When a display element is split.
 #[derive(Debug, Clone, Copy, PartialEq)]

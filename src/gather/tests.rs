@@ -362,6 +362,72 @@ fn a_foot_vertex_rounded_into_the_box_still_reads_the_floor_beside_it() {
 }
 
 #[test]
+fn each_facet_of_a_shallow_ridge_takes_the_light_its_own_normal_sees() {
+    // Two facets meeting at 11 degrees (under the crease angle: their
+    // ridge vertices are one smooth group, gathered once with the mean
+    // normal), lit from one side. Each facet's ridge vertex must read the
+    // light its own plane gets, as a path tracer shows it, not the mean
+    // normal's (one value for both: a scan looked polished).
+    let a = facing(
+        vec![
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.1, -1.0),
+            Vec3::new(0.0, 0.1, 1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+        ],
+        Vec3::new(0.0, 5.0, 0.0),
+    );
+    let b = facing(
+        vec![
+            Vec3::new(0.0, 0.1, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(0.0, 0.1, 1.0),
+        ],
+        Vec3::new(0.0, 5.0, 0.0),
+    );
+    let light = facing(
+        vec![
+            Vec3::new(-2.0, 1.5, -0.5),
+            Vec3::new(-1.0, 1.5, -0.5),
+            Vec3::new(-1.0, 1.5, 0.5),
+            Vec3::new(-2.0, 1.5, 0.5),
+        ],
+        Vec3::ZERO,
+    );
+    let refs: Vec<&[Vec3]> = vec![&a, &light, &b];
+    let mut s = scene(&refs);
+    s.materials = vec![material(0.5, 0.0), material(0.0, 1.0)];
+    s.patches[1].material = 1;
+    let (mesh, tree, lit, settings) = direct_gather(&s);
+    let display = uniform(&s, 0.5);
+    let got = gather_vertices(&s, &mesh, &tree, &lit, &display, &settings);
+    let light: Vec<DVec3> = light.iter().map(|v| v.as_dvec3()).collect();
+    let mut ridge = [0, 0];
+    for (e, el) in display.elements.iter().enumerate() {
+        if el.patch == 1 {
+            continue;
+        }
+        for &v in el.corners() {
+            let p = display.vertices[v as usize];
+            if p.x.abs() > 1e-5 {
+                continue;
+            }
+            ridge[usize::from(el.patch == 2)] += 1;
+            let n = s.patches[el.patch as usize].normal.as_dvec3();
+            let exact = 0.5 * point_to_polygon(p.as_dvec3(), n, &light) as f32;
+            let value = got[v as usize][0];
+            assert!(
+                (value - exact).abs() <= 1e-2 * exact,
+                "element {e} (facet {}) at {p}: {value} vs {exact}",
+                el.patch
+            );
+        }
+    }
+    assert!(ridge[0] >= 2 && ridge[1] >= 2, "ridge corners {ridge:?}");
+}
+
+#[test]
 fn just_past_an_umbra_the_light_is_not_taken_as_hidden() {
     // Beyond the box, just past its umbra's edge on the floor, a sliver
     // of the light around its corner shows: 16 stratified rays missed it,

@@ -7,13 +7,15 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::point_gather::Linking;
 use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
+use super::facets::FacetTurn;
 use super::Gathered;
 use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::{vertex_frames, VERTEX_INSET};
-use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
 use crate::mesh::Mesh;
 use crate::scene::Scene;
 
@@ -22,6 +24,9 @@ use crate::scene::Scene;
 #[derive(Default)]
 pub struct VertexCache {
     values: HashMap<(u32, [i64; 3]), [f32; 3]>,
+    /// The emitters' direct light in each value gathered at a vertex
+    /// (before its reflectance), for its facets ([`FacetTurn`]).
+    direct: HashMap<(u32, [i64; 3]), Vec3>,
 }
 
 impl VertexCache {
@@ -112,16 +117,35 @@ impl FinalGather<'_> {
             .total
             .saturating_sub(display.vertices.len() - frames.len());
         let vals = self.at_display_points(&frames, meter)?;
-        for (&g, value) in todo.iter().zip(vals) {
-            cache.values.insert(key(groups.members[g].0), value);
+        for (&g, (value, direct)) in todo.iter().zip(vals) {
+            let at = key(groups.members[g].0);
+            cache.values.insert(at, value);
+            cache.direct.insert(at, direct);
         }
+        // Each vertex its group's value, the direct light turned to its
+        // own facet where that is not the group's plane.
+        let turn = FacetTurn::new(scene);
         Some(
-            groups
-                .group
-                .iter()
-                .map(|&g| match groups.members.get(g as usize) {
-                    Some(&(v, _)) => cache.values.get(&key(v)).copied().unwrap_or([0.0; 3]),
-                    None => [0.0; 3],
+            (0..display.vertices.len())
+                .into_par_iter()
+                .map(|v| {
+                    let Some(&(m, normal)) = groups.members.get(groups.group[v] as usize) else {
+                        return [0.0; 3];
+                    };
+                    let at = key(m);
+                    let Some(&value) = cache.values.get(&at) else {
+                        return [0.0; 3];
+                    };
+                    let patch = patches[v];
+                    let facet = scene.patches[patch as usize].normal;
+                    match cache.direct.get(&at) {
+                        Some(&direct) if facet.dot(normal) < FLAT_COSINE => {
+                            let gain = turn.gain(display.vertices[v], normal, facet);
+                            let change = self.rho_of(patch) * direct * (gain - 1.0);
+                            (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
+                        }
+                        _ => value,
+                    }
                 })
                 .collect(),
         )
@@ -135,8 +159,9 @@ impl FinalGather<'_> {
     /// its patch's centre, or into its element where that is enclosed,
     /// its hemisphere rays pooled with its neighbours'. (A point on a
     /// contact line gathered where it lies reads about half the light of
-    /// the vertex it becomes.) Counted on `meter`, whose total the caller
-    /// has given them.
+    /// the vertex it becomes.) Its direct light is turned to the first
+    /// element's own facet ([`FacetTurn`]), as that element's corners
+    /// are. Counted on `meter`, whose total the caller has given them.
     pub fn at_element_points_metered(
         &mut self,
         display: &Mesh,
@@ -162,7 +187,23 @@ impl FinalGather<'_> {
             &around,
             &mut frames,
         );
-        self.at_display_points(&frames, meter)
+        let gathered = self.at_display_points(&frames, meter)?;
+        let turn = FacetTurn::new(scene);
+        Some(
+            gathered
+                .into_iter()
+                .zip(points)
+                .map(|((value, direct), (p, normal, around))| {
+                    let element = &display.elements[around[0] as usize];
+                    if element.normal.dot(*normal) >= FLAT_COSINE {
+                        return value;
+                    }
+                    let gain = turn.gain(*p, *normal, element.normal);
+                    let change = self.rho_of(element.patch) * direct * (gain - 1.0);
+                    (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
+                })
+                .collect(),
+        )
     }
 
     /// Radiosity at display points `frames`. In a scene whose reflected
@@ -170,10 +211,16 @@ impl FinalGather<'_> {
     /// their neighbours' ([`shared_reflected`](super::shared_reflected)):
     /// each sends a share of them, and only those the pool leaves short
     /// send them all.
-    fn at_display_points(&mut self, frames: &[Frame], meter: &mut Meter) -> Option<Vec<[f32; 3]>> {
+    fn at_display_points(
+        &mut self,
+        frames: &[Frame],
+        meter: &mut Meter,
+    ) -> Option<Vec<([f32; 3], Vec3)>> {
         let rays = self.gather.hemisphere_rays.rays;
         if !self.gather.hemisphere_rays.any() || rays < FIRST_SHARE {
-            return self.gather.at_points(frames, None, meter);
+            let gathered =
+                (self.gather).gather_points(frames, None, None, Linking::None, None, meter)?;
+            return Some(gathered.into_iter().map(|(b, g)| (b.to_array(), g.direct)).collect());
         }
         // Every point with a share of the rays, measuring how far its
         // light holds.
@@ -228,7 +275,8 @@ impl FinalGather<'_> {
                 .zip(frames)
                 .zip(pooled)
                 .map(|(((b, g), frame), pooled)| {
-                    (*b + self.rho_of(frame.2) * (pooled - g.reflected)).to_array()
+                    let b = *b + self.rho_of(frame.2) * (pooled - g.reflected);
+                    (b.to_array(), g.direct)
                 })
                 .collect(),
         )

@@ -18,6 +18,10 @@ use crate::scene::Scene;
 /// Blender's auto-smooth default).
 pub const CREASE_DEGREES: f32 = 30.0;
 
+/// A patch whose normal is within about 0.25 degrees of its group's mean
+/// counts as lying in the group's plane.
+pub const FLAT_COSINE: f32 = 0.99999;
+
 /// Vertices that share one value.
 #[derive(Debug, Clone)]
 pub struct SmoothGroups {
