@@ -51,47 +51,15 @@ pub(super) fn exposed_parts(
     occluders: &Occluders,
     grid: usize,
 ) -> Vec<ExposedPart> {
-    let longest = |el: &Element| {
-        let c = el.corners();
-        (0..c.len())
-            .map(|i| {
-                let (a, b) = (c[i], c[(i + 1) % c.len()]);
-                mesh.vertices[a as usize].distance(mesh.vertices[b as usize])
-            })
-            .fold(0.0f32, f32::max)
-    };
-    let largest = mesh.elements.iter().map(longest).fold(0.0f32, f32::max);
+    let grids = element_grids(mesh, grid);
     mesh.elements
         .par_iter()
         .enumerate()
         .map(|(k, el)| {
-            // The points' spacing is the largest element's everywhere.
-            let grid = match largest > 0.0 {
-                true => ((grid as f32 * longest(el) / largest).ceil() as usize)
-                    .clamp(MIN_GRID.min(grid), grid),
-                false => grid,
-            };
-            let corners: Vec<Vec3> = el
-                .corners()
-                .iter()
-                .map(|&v| mesh.vertices[v as usize])
-                .collect();
-            let sampler = Sampler::new(&corners);
-            let (t, b) = tangent_frame(el.normal);
-            let mut rng = Pcg32::new(0x00e0_05ed, k as u64);
-            let (mut points, mut centre) = (Vec::new(), Vec3::ZERO);
-            for i in 0..grid {
-                for j in 0..grid {
-                    let u = (i as f32 + rng.next_f32()) / grid as f32;
-                    let w = (j as f32 + rng.next_f32()) / grid as f32;
-                    let p = sampler.point(u, w);
-                    if !encloses(scene, occluders, p, el.normal, (t, b), &mut rng) {
-                        points.push(p);
-                        centre += p;
-                    }
-                }
-            }
+            let grid = grids[k];
+            let points = exposed_points(scene, occluders, mesh, k, grid, 0x00e0_05ed);
             let (exposed, all) = (points.len(), grid * grid);
+            let centre = points.iter().sum::<Vec3>();
             ExposedPart {
                 share: exposed as f32 / all as f32,
                 centre: if exposed > 0 && exposed < all {
@@ -103,6 +71,62 @@ pub(super) fn exposed_parts(
             }
         })
         .collect()
+}
+
+/// Each element's points a side: `grid` for the largest, fewer on smaller
+/// ones at the same spacing (never under [`MIN_GRID`]).
+pub(super) fn element_grids(mesh: &Mesh, grid: usize) -> Vec<usize> {
+    let longest = |el: &Element| {
+        let c = el.corners();
+        (0..c.len())
+            .map(|i| {
+                let (a, b) = (c[i], c[(i + 1) % c.len()]);
+                mesh.vertices[a as usize].distance(mesh.vertices[b as usize])
+            })
+            .fold(0.0f32, f32::max)
+    };
+    let largest = mesh.elements.iter().map(longest).fold(0.0f32, f32::max);
+    mesh.elements
+        .iter()
+        .map(|el| match largest > 0.0 {
+            true => ((grid as f32 * longest(el) / largest).ceil() as usize)
+                .clamp(MIN_GRID.min(grid), grid),
+            false => grid,
+        })
+        .collect()
+}
+
+/// The exposed ones of `grid` x `grid` stratified points on element `k`
+/// (jittered by the random stream `(seed, k)`).
+pub(super) fn exposed_points(
+    scene: &Scene,
+    occluders: &Occluders,
+    mesh: &Mesh,
+    k: usize,
+    grid: usize,
+    seed: u64,
+) -> Vec<Vec3> {
+    let el = &mesh.elements[k];
+    let corners: Vec<Vec3> = el
+        .corners()
+        .iter()
+        .map(|&v| mesh.vertices[v as usize])
+        .collect();
+    let sampler = Sampler::new(&corners);
+    let (t, b) = tangent_frame(el.normal);
+    let mut rng = Pcg32::new(seed, k as u64);
+    let mut points = Vec::new();
+    for i in 0..grid {
+        for j in 0..grid {
+            let u = (i as f32 + rng.next_f32()) / grid as f32;
+            let w = (j as f32 + rng.next_f32()) / grid as f32;
+            let p = sampler.point(u, w);
+            if !encloses(scene, occluders, p, el.normal, (t, b), &mut rng) {
+                points.push(p);
+            }
+        }
+    }
+    points
 }
 
 /// Whether the point `p` (on a surface of unit normal `n`, tangents `t`,

@@ -33,13 +33,18 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::exposure::ExposedPart;
+use super::exposure::{element_grids, exposed_points, ExposedPart};
 use super::is_even;
 use super::receiver::Receiver;
 use super::Gather;
 use crate::formfactor::sampling::Pcg32;
 use crate::mesh::Mesh;
 use crate::solve::hierarchy::Node;
+
+/// How many times as many points a side the direct light of an uneven,
+/// partly enclosed element is sampled at, where hemisphere rays read it
+/// ([`Gather::direct_means`]).
+const FINER: usize = 3;
 
 /// Up to this many emitting patches, every sample traces a ray to each;
 /// past it, to one picked in proportion to its power (noisier: in a room
@@ -189,30 +194,60 @@ impl Gather<'_> {
     /// shadows keep to where the centre falls: the exposed part of a floor
     /// element under a letter centres on the ring around the letter's foot,
     /// where its short shadow lies.
-    pub(super) fn direct_means(&self, mesh: &Mesh, exposed: &[ExposedPart]) -> DirectMeans {
-        let samples: Vec<Vec<(Vec3, Vec3)>> = exposed
+    ///
+    /// With `landing_grid` (the grid `exposed` was taken at, where
+    /// hemisphere rays read the light at the nearest point), an element
+    /// partly enclosed (a box stands on it) whose points disagree is
+    /// sampled again [`FINER`] times as densely: there the nearest point
+    /// to a landing in the box's shadow could lie beside the box, in the
+    /// light, a grid cell away around its corner (the foot of a letter's
+    /// front face, which sees the floor in the letter's shadow, read
+    /// 30-50% bright).
+    pub(super) fn direct_means(
+        &self,
+        mesh: &Mesh,
+        exposed: &[ExposedPart],
+        landing_grid: Option<usize>,
+    ) -> DirectMeans {
+        let light_at = |e: usize, points: &[Vec3], seed: u64| -> Vec<(Vec3, Vec3)> {
+            let mut rng = Pcg32::new(seed, e as u64);
+            let (n, patch) = (mesh.elements[e].normal, mesh.elements[e].patch);
+            points
+                .iter()
+                .map(|&y| (y, self.direct_at(y, n, patch, POINT_RAYS, &mut rng)))
+                .collect()
+        };
+        let mut samples: Vec<Vec<(Vec3, Vec3)>> = exposed
             .par_iter()
             .enumerate()
-            .map(|(e, part)| {
-                let mut rng = Pcg32::new(0x0d1e_c7ed, e as u64);
-                let (n, patch) = (mesh.elements[e].normal, mesh.elements[e].patch);
-                part.points
-                    .iter()
-                    .map(|&y| (y, self.direct_at(y, n, patch, POINT_RAYS, &mut rng)))
-                    .collect()
+            .map(|(e, part)| light_at(e, &part.points, 0x0d1e_c7ed))
+            .collect();
+        let level = |d: &(Vec3, Vec3)| d.1.x + d.1.y + d.1.z;
+        let even: Vec<bool> = samples
+            .iter()
+            .map(|s| {
+                let lo = s.iter().map(level).fold(f32::INFINITY, f32::min);
+                is_even(lo, s.iter().map(level).fold(0.0, f32::max), self.settings.uniformity)
             })
             .collect();
+        if let Some(grid) = landing_grid {
+            let grids = element_grids(mesh, grid);
+            samples
+                .par_iter_mut()
+                .enumerate()
+                .filter(|(e, _)| !even[*e] && exposed[*e].share < 1.0)
+                .for_each(|(e, s)| {
+                    let grid = FINER * grids[e];
+                    let points =
+                        exposed_points(self.scene, &self.occluders, mesh, e, grid, 0x0f1e_c7ed);
+                    if !points.is_empty() {
+                        *s = light_at(e, &points, 0x0d1e_c7ee);
+                    }
+                });
+        }
         let mean = samples
             .iter()
             .map(|s| s.iter().map(|d| d.1).sum::<Vec3>() / s.len().max(1) as f32)
-            .collect();
-        let even = samples
-            .iter()
-            .map(|s| {
-                let levels = s.iter().map(|d| d.1.x + d.1.y + d.1.z);
-                let lo = levels.clone().fold(f32::INFINITY, f32::min);
-                is_even(lo, levels.fold(0.0, f32::max), self.settings.uniformity)
-            })
             .collect();
         let mut start = Vec::with_capacity(samples.len() + 1);
         start.push(0);

@@ -343,7 +343,8 @@ impl<'a> FinalGather<'a> {
         let direct_means = (settings.source_passes > 0).then(|| {
             gather.emitters = Emitters::new(&gather, &roots);
             let means = step(trace, "direct means", || {
-                gather.direct_means(solved, &exposed)
+                let landing = gather.hemisphere_rays.any().then_some(grid);
+                gather.direct_means(solved, &exposed, landing)
             });
             let means = Arc::new(means);
             let lit = Some((&*means, &gather.element_rho[..]));
