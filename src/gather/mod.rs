@@ -204,6 +204,8 @@ pub struct FinalGather<'a> {
     tail_ratio: Option<f64>,
     /// The scene's smooth surfaces, found once for whoever asks first.
     surfaces: OnceLock<Vec<u32>>,
+    /// The emitters as the display's facets turn to them, found once.
+    facet_turn: OnceLock<facets::FacetTurn>,
     /// Display points that pooled their rays, and those of them that
     /// sent them all ([`shared_reflected`]).
     pooled: [usize; 2],
@@ -464,6 +466,7 @@ impl<'a> FinalGather<'a> {
             centres_gathered,
             tail_ratio,
             surfaces,
+            facet_turn: OnceLock::new(),
             pooled: [0; 2],
         })
     }

@@ -123,8 +123,7 @@ impl FinalGather<'_> {
             cache.direct.insert(at, direct);
         }
         // Each vertex its group's value, the direct light turned to its
-        // own facet where that is not the group's plane.
-        let turn = FacetTurn::new(scene);
+        // own facet.
         Some(
             (0..display.vertices.len())
                 .into_par_iter()
@@ -136,15 +135,11 @@ impl FinalGather<'_> {
                     let Some(&value) = cache.values.get(&at) else {
                         return [0.0; 3];
                     };
-                    let patch = patches[v];
-                    let facet = scene.patches[patch as usize].normal;
                     match cache.direct.get(&at) {
-                        Some(&direct) if facet.dot(normal) < FLAT_COSINE => {
-                            let gain = turn.gain(display.vertices[v], normal, facet);
-                            let change = self.rho_of(patch) * direct * (gain - 1.0);
-                            (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
+                        Some(&direct) => {
+                            self.on_facet(value, direct, display.vertices[v], normal, patches[v])
                         }
-                        _ => value,
+                        None => value,
                     }
                 })
                 .collect(),
@@ -188,22 +183,32 @@ impl FinalGather<'_> {
             &mut frames,
         );
         let gathered = self.at_display_points(&frames, meter)?;
-        let turn = FacetTurn::new(scene);
         Some(
             gathered
                 .into_iter()
                 .zip(points)
                 .map(|((value, direct), (p, normal, around))| {
-                    let element = &display.elements[around[0] as usize];
-                    if element.normal.dot(*normal) >= FLAT_COSINE {
-                        return value;
-                    }
-                    let gain = turn.gain(*p, *normal, element.normal);
-                    let change = self.rho_of(element.patch) * direct * (gain - 1.0);
-                    (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
+                    let patch = display.elements[around[0] as usize].patch;
+                    self.on_facet(value, direct, *p, *normal, patch)
                 })
                 .collect(),
         )
+    }
+
+    /// `value`, gathered at `p` with `normal` (its direct light `direct`),
+    /// as a corner of a facet of `patch` shows it: the direct light
+    /// turned to the facet's own normal ([`FacetTurn`]) where that is not
+    /// `normal`.
+    fn on_facet(&self, value: [f32; 3], direct: Vec3, p: Vec3, normal: Vec3, patch: u32) -> [f32; 3] {
+        let scene = self.gather.scene;
+        let facet = scene.patches[patch as usize].normal;
+        if facet.dot(normal) >= FLAT_COSINE {
+            return value;
+        }
+        let turn = self.facet_turn.get_or_init(|| FacetTurn::new(scene));
+        let gain = turn.gain(p, normal, facet);
+        let change = self.rho_of(patch) * direct * (gain - 1.0);
+        (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
     }
 
     /// Radiosity at display points `frames`. In a scene whose reflected
