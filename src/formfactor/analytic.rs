@@ -95,6 +95,46 @@ pub fn point_to_polygon(p: DVec3, n: DVec3, poly: &[DVec3]) -> f64 {
     (-sum / (2.0 * PI)).max(0.0)
 }
 
+/// [`point_to_polygon`] for a polygon small beside its distance (radius
+/// at most [`DISTANT`] times it) and well in front of the point's tangent
+/// plane, by the disc approximation (Wallace et al. 1989):
+/// `F = A cos_p cos_q / (pi r^2 + A)` at its area centroid `centre`
+/// (normal `normal`, area `area`). `None` where the polygon is not that
+/// small or not that far in front, and the contour integral is needed.
+/// No clipping and no arc tangents, and within 0.5% of the integral (the
+/// worst its test finds over random polygons and receivers: 0.45%).
+pub fn point_to_distant_polygon(
+    p: DVec3,
+    n: DVec3,
+    centre: DVec3,
+    normal: DVec3,
+    radius: f64,
+    area: f64,
+) -> Option<f64> {
+    let d = centre - p;
+    let r2 = d.length_squared();
+    if radius * radius > DISTANT * DISTANT * r2 {
+        return None;
+    }
+    // The polygon well in front of the receiver's plane and the receiver
+    // well in front of the polygon's: at a grazing angle the cosines vary
+    // over the polygon, and the error grows to 1% where either height is
+    // under two radii.
+    let (height, facing) = (d.dot(n), -d.dot(normal));
+    if height.min(facing) < DISTANT_HEIGHT * radius {
+        return None;
+    }
+    let r = r2.sqrt();
+    Some(area * (height / r) * (facing / r) / (PI * r2 + area))
+}
+
+/// Radius over distance up to which [`point_to_distant_polygon`] serves.
+pub const DISTANT: f64 = 0.05;
+
+/// Each plane's height over the other's centre, in radii, from which
+/// [`point_to_distant_polygon`] serves.
+pub const DISTANT_HEIGHT: f64 = 4.0;
+
 /// Gauss-Legendre nodes and weights on [0, 1] of the given order.
 pub fn gauss_legendre_01(order: usize) -> Vec<(f64, f64)> {
     let m = order.max(1);
@@ -369,6 +409,46 @@ mod tests {
 
     fn reversed(p: &[DVec3]) -> Vec<DVec3> {
         p.iter().rev().copied().collect()
+    }
+
+    #[test]
+    fn a_distant_polygon_takes_the_disc_approximation_within_its_error() {
+        let mut rng = crate::formfactor::sampling::Pcg32::new(7, 1);
+        let mut u = || rng.next_f32() as f64 * 2.0 - 1.0;
+        let (mut taken, mut worst) = (0, 0.0f64);
+        for _ in 0..20_000 {
+            // A random triangle or quad of radius about 1, somewhere
+            // between 15 and 40 away in any direction.
+            let sides = if u() > 0.0 { 3 } else { 4 };
+            let normal = DVec3::new(u(), u(), u()).normalize();
+            let t = normal.any_orthonormal_vector();
+            let b = normal.cross(t);
+            let poly: Vec<DVec3> = (0..sides)
+                .map(|k| {
+                    let a = (k as f64 + 0.3 * u()) / sides as f64 * 2.0 * PI;
+                    (t * a.cos() + b * a.sin()) * (1.0 + 0.3 * u())
+                })
+                .collect();
+            let dir = DVec3::new(u(), u(), u()).normalize();
+            let p = dir * (15.0 + 12.5 * (u() + 1.0));
+            let n = DVec3::new(u(), u(), u()).normalize();
+            let area = crate::geom::polygon_area(&poly);
+            let centre = (1..sides - 1)
+                .map(|k| (poly[0] + poly[k] + poly[k + 1]) / 3.0 * crate::geom::polygon_area(&[poly[0], poly[k], poly[k + 1]]))
+                .sum::<DVec3>()
+                / area;
+            let radius = poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max);
+            let Some(approx) = point_to_distant_polygon(p, n, centre, newell(&poly).normalize(), radius, area) else {
+                continue;
+            };
+            let exact = point_to_polygon(p, n, &poly);
+            assert!(exact > 0.0, "taken where the integral is 0");
+            taken += 1;
+            worst = worst.max((approx / exact - 1.0).abs());
+        }
+        assert!(taken > 1_000, "only {taken} cases were distant and in front");
+        assert!(worst <= 0.005, "worst relative error {worst}");
+        eprintln!("{taken} distant cases, worst relative error {worst:.5}");
     }
 
     #[test]

@@ -34,6 +34,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::exposure::{element_grids, exposed_points, ExposedPart};
+use super::many_lights::{shared_visible_share, FacedLight};
 use super::is_even;
 use super::receiver::Receiver;
 use super::Gather;
@@ -46,10 +47,21 @@ use crate::solve::hierarchy::Node;
 /// ([`Gather::direct_means`]).
 const FINER: usize = 3;
 
-/// Up to this many emitting patches, every sample traces a ray to each;
-/// past it, to one picked in proportion to its power (noisier: in a room
-/// whose six walls glow, one wall a sample left the elements 30% apart).
+/// Up to this many emitting patches a sample faces, each gets its own
+/// rays; past it, these many that give the sample most do, and the rest
+/// share one visible share ([`many_lights::shared_visible_share`]), their
+/// exact unoccluded form factors summed. One emitter a sample, picked by
+/// power, was unbiased but far too noisy: with 100 panels over an office
+/// each sample read one at 100 times its weight, and the image came out
+/// 5.9% off against Mitsuba (1.7% dark), 2.9% with every panel traced.
 const ALL_EMITTERS: usize = 16;
+
+/// Past [`ALL_EMITTERS`], how many of the faced emitters that give a
+/// sample most get their own rays.
+const OWN_RAYS_LIGHTS: usize = 4;
+
+/// Rays of the shared estimate over the emitters past [`ALL_EMITTERS`].
+const SHARED_RAYS: usize = 2 * POINT_RAYS;
 
 /// Each element's direct light, averaged over its exposed part, and
 /// whether it is even there (its samples within
@@ -84,6 +96,17 @@ impl DirectMeans {
         }
         best.map(|i| self.light[i])
     }
+
+    /// Element `e`'s exposed points and the direct light sampled at each.
+    #[cfg(test)]
+    pub(super) fn samples(&self, e: u32) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        let e = e as usize;
+        let range = self.start[e] as usize..self.start[e + 1] as usize;
+        self.points[range.clone()]
+            .iter()
+            .copied()
+            .zip(self.light[range].iter().copied())
+    }
 }
 
 /// Whether `node`'s convex outline holds `y` (a point of its plane),
@@ -101,17 +124,16 @@ fn holds(node: &Node, y: Vec3) -> bool {
 /// to 1.70%.
 pub(super) const POINT_RAYS: usize = 4;
 
-/// The emitting patches' root nodes and their cumulative power shares.
+/// The emitting patches' root nodes.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Emitters {
     nodes: Vec<u32>,
-    cdf: Vec<f32>,
 }
 
 impl Emitters {
-    /// The emitting roots among `roots`, weighed by their current light.
+    /// The emitting roots among `roots` that give light now.
     pub(super) fn new(gather: &Gather, roots: &[u32]) -> Self {
-        let nodes: Vec<u32> = roots
+        let nodes = roots
             .iter()
             .copied()
             .filter(|&n| {
@@ -119,18 +141,7 @@ impl Emitters {
                 src.emits && src.radiosity.max_element() > 0.0
             })
             .collect();
-        let mut total = 0.0;
-        let mut cdf: Vec<f32> = nodes
-            .iter()
-            .map(|&n| {
-                let b = gather.sources[n as usize].radiosity;
-                total += (b.x + b.y + b.z) * gather.tree.nodes[n as usize].area;
-                total
-            })
-            .collect();
-        cdf.iter_mut()
-            .for_each(|c| *c /= total.max(f32::MIN_POSITIVE));
-        Emitters { nodes, cdf }
+        Emitters { nodes }
     }
 }
 
@@ -267,8 +278,9 @@ impl Gather<'_> {
 
     /// The emitters' direct light `sum_e B_e F(y -> e) V(y, e)` at point
     /// `y` of patch `patch` (front normal `n`): each emitter's exact form
-    /// factor times one kernel-weighted visibility ray; past
-    /// [`ALL_EMITTERS`] one emitter, picked by power, over its chance.
+    /// factor times a kernel-weighted visibility from `rays` rays; past
+    /// [`ALL_EMITTERS`] faced emitters, the rest's visibility is one
+    /// share estimated over them all.
     pub(super) fn direct_at(
         &self,
         y: Vec3,
@@ -277,36 +289,41 @@ impl Gather<'_> {
         rays: usize,
         rng: &mut Pcg32,
     ) -> Vec3 {
-        let emitters = &self.emitters;
         let at = Receiver {
             p: y,
             n,
             patch,
             emitter_rays: 1,
         };
-        let one = |e: u32, rng: &mut Pcg32| {
-            let src = &self.sources[e as usize];
-            let Some(exact) = at.unoccluded(src) else {
-                return Vec3::ZERO;
-            };
+        let mut faced: Vec<FacedLight> = self
+            .emitters
+            .nodes
+            .iter()
+            .filter_map(|&e| {
+                let src = &self.sources[e as usize];
+                at.unoccluded_node(src, &self.tree.nodes[e as usize])
+                    .map(|exact| FacedLight::new(e, src, exact, false))
+            })
+            .collect();
+        let own_rays = |light: &FacedLight, rng: &mut Pcg32| {
+            let src = &self.sources[light.node as usize];
             let (seen, all) = at.visible_weight(rays, src, &self.occluders, rng);
             match all > 0.0 {
-                true => src.radiosity * exact * (seen / all),
+                true => src.radiosity * light.exact * (seen / all),
                 false => Vec3::ZERO,
             }
         };
-        if emitters.nodes.len() <= ALL_EMITTERS {
-            return emitters.nodes.iter().map(|&e| one(e, rng)).sum();
+        if faced.len() <= ALL_EMITTERS {
+            return faced.iter().map(|l| own_rays(l, rng)).sum();
         }
-        let u = rng.next_f32();
-        let k = emitters
-            .cdf
-            .partition_point(|&c| c < u)
-            .min(emitters.nodes.len() - 1);
-        let chance = emitters.cdf[k] - if k == 0 { 0.0 } else { emitters.cdf[k - 1] };
-        match chance > 0.0 {
-            true => one(emitters.nodes[k], rng) / chance,
-            false => Vec3::ZERO,
-        }
+        faced.select_nth_unstable_by(OWN_RAYS_LIGHTS - 1, |a, b| b.gives.total_cmp(&a.gives));
+        let (own, shared) = faced.split_at(OWN_RAYS_LIGHTS);
+        let share =
+            shared_visible_share(&at, shared, &self.sources, &self.occluders, SHARED_RAYS, rng);
+        let rest: Vec3 = shared
+            .iter()
+            .map(|l| self.sources[l.node as usize].radiosity * l.exact)
+            .sum();
+        own.iter().map(|l| own_rays(l, rng)).sum::<Vec3>() + rest * share
     }
 }

@@ -109,7 +109,7 @@ fn shared_rays(at: &Receiver) -> usize {
 /// and the light beside a box's foot read 17% high. Each light is far or small beside the brightest, so its
 /// kernel is about flat over it and a plain mean of the rays serves. 0
 /// where no ray meets a light's front.
-fn shared_visible_share(
+pub(super) fn shared_visible_share(
     at: &Receiver,
     lights: &[FacedLight],
     sources: &[Source],

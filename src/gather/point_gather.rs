@@ -519,7 +519,7 @@ impl Gather<'_> {
             }
             // The lights are ranked by what they give once all are found.
             if src.emits {
-                if let Some(exact) = at.unoccluded(src) {
+                if let Some(exact) = at.unoccluded_node(src, node) {
                     lights.push(FacedLight::new(n, src, exact, near));
                 }
                 continue;

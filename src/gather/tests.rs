@@ -1524,3 +1524,51 @@ fn many_lights_sharing_one_shadow_estimate_agree_with_each_taken_exactly() {
     assert!(mean < 0.001, "floor's light off by {mean} on the mean");
     assert!(worst < 0.1, "a floor point off by {worst} of the mean");
 }
+
+#[test]
+fn the_direct_light_sampled_over_elements_under_many_lights_is_exact_where_nothing_blocks() {
+    // 100 panels over a floor. Each solved element's direct light is
+    // sampled at its exposed points for the Jacobi passes and for the
+    // hemisphere rays that land on it. Where no light is blocked, every
+    // sample must read the exact sum of the panels' form factors. One
+    // panel a sample, picked by power and weighed 100 times, read up to
+    // 3.7 times the truth here, and an office of 100 panels came out 5.9%
+    // off against a path tracer, 1.7% dark.
+    let s = floor_under_a_grid_of_lights(10);
+    let mesh = uniform(&s, 0.25);
+    let tree = ShooterTree::new(&s, &mesh);
+    let b: Vec<[f32; 3]> = mesh
+        .elements
+        .iter()
+        .map(|e| [if s.patches[e.patch as usize].material == 1 { 1.0 } else { 0.0 }; 3])
+        .collect();
+    let settings = VertexGather {
+        source_passes: 1,
+        ..VertexGather::default()
+    };
+    let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+    let means = gather.gather.direct_map.as_ref().expect("passes take the direct means");
+    let panels: Vec<Vec<DVec3>> = (1..=100)
+        .map(|p| s.patches[p].vertices.iter().map(|v| v.as_dvec3()).collect())
+        .collect();
+    let (mut open, mut worst) = (0, 0.0f64);
+    for (e, element) in mesh.elements.iter().enumerate() {
+        let c = element.centre;
+        // Floor elements far from the box (x 0.2..1.0, z -0.4..0.4), on
+        // the side away from it, where no panel is hidden.
+        if element.patch != 0 || c.x > -0.9 || c.z.abs() > 1.8 {
+            continue;
+        }
+        for (y, light) in means.samples(e as u32) {
+            let exact: f64 = panels
+                .iter()
+                .map(|poly| point_to_polygon(y.as_dvec3(), DVec3::Y, poly))
+                .sum();
+            worst = worst.max((f64::from(light.x) / exact - 1.0).abs());
+            open += 1;
+        }
+    }
+    eprintln!("{open} samples, worst {worst:.5}");
+    assert!(open >= 200, "only {open} open samples");
+    assert!(worst < 0.005, "a sample's direct light off by {worst} of the exact");
+}
