@@ -1467,6 +1467,15 @@ fn floor_under_a_grid_of_lights(side: usize) -> Scene {
     s
 }
 
+/// The radiosity of [`floor_under_a_grid_of_lights`]'s elements: 1 on
+/// the panels, 0 elsewhere.
+fn panels_glowing(s: &Scene, mesh: &Mesh) -> Vec<[f32; 3]> {
+    mesh.elements
+        .iter()
+        .map(|e| [if s.patches[e.patch as usize].material == 1 { 1.0 } else { 0.0 }; 3])
+        .collect()
+}
+
 #[test]
 fn many_lights_sharing_one_shadow_estimate_agree_with_each_taken_exactly() {
     // 64 panels: a floor point takes the 4 that give it most with their
@@ -1478,11 +1487,7 @@ fn many_lights_sharing_one_shadow_estimate_agree_with_each_taken_exactly() {
     let s = floor_under_a_grid_of_lights(8);
     let mesh = uniform(&s, 0.1);
     let tree = ShooterTree::new(&s, &mesh);
-    let b: Vec<[f32; 3]> = mesh
-        .elements
-        .iter()
-        .map(|e| [if s.patches[e.patch as usize].material == 1 { 1.0 } else { 0.0 }; 3])
-        .collect();
+    let b = panels_glowing(&s, &mesh);
     let gather = |exact_lights: usize| {
         let settings = VertexGather {
             source_passes: 0,
@@ -1537,11 +1542,7 @@ fn the_direct_light_sampled_over_elements_under_many_lights_is_exact_where_nothi
     let s = floor_under_a_grid_of_lights(10);
     let mesh = uniform(&s, 0.25);
     let tree = ShooterTree::new(&s, &mesh);
-    let b: Vec<[f32; 3]> = mesh
-        .elements
-        .iter()
-        .map(|e| [if s.patches[e.patch as usize].material == 1 { 1.0 } else { 0.0 }; 3])
-        .collect();
+    let b = panels_glowing(&s, &mesh);
     let settings = VertexGather {
         source_passes: 1,
         ..VertexGather::default()
