@@ -21,6 +21,7 @@ use super::{
     PIXEL_EMITTER_RAYS, RANDOM_SEED,
 };
 use crate::formfactor::sampling::Pcg32;
+use crate::output::tonemap::luminance;
 use crate::geom::{nearest_in_polygon, tangent_frame};
 use crate::trace::{self, TracedMap};
 
@@ -78,6 +79,7 @@ impl Default for Gathered {
             reflected: Vec3::ZERO,
             distance: HarmonicDistance::default(),
             clearance: f32::INFINITY,
+            ray_error: 0.0,
         }
     }
 }
@@ -93,6 +95,15 @@ impl Gathered {
     /// the point still changes the light around it).
     pub(super) fn reach(&self) -> f32 {
         self.distance.mean().min(self.clearance.max(0.0))
+    }
+
+    /// The relative standard error of its reflected light from the
+    /// spread of what its hemisphere rays read (0 without them).
+    pub(super) fn ray_noise(&self) -> f32 {
+        match luminance(self.reflected.to_array()) {
+            level if level > 0.0 => self.ray_error / level,
+            _ => 0.0,
+        }
     }
 }
 
@@ -432,6 +443,7 @@ impl Gather<'_> {
             if wanted.record {
                 gathered.clearance = gathered.clearance.min(by_rays.clearance);
             }
+            gathered.ray_error = by_rays.noise * luminance(by_rays.reflected.to_array());
         }
         // Clusters of patches first: far, even ones whole, the rest down
         // to their patches' root nodes.

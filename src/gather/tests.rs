@@ -1573,3 +1573,37 @@ fn the_direct_light_sampled_over_elements_under_many_lights_is_exact_where_nothi
     assert!(open >= 200, "only {open} open samples");
     assert!(worst < 0.005, "a sample's direct light off by {worst} of the exact");
 }
+
+#[test]
+fn points_take_reflected_light_only_from_centre_records_as_quiet_as_their_own_rays() {
+    // The centres' records are gathered with half the hemisphere rays and
+    // without more where they disagree; a point that took its light from
+    // noisy ones read a smooth blotch of their noise (an office ceiling
+    // lit only by reflected light: 6.5% off where it reused, 4.0% where
+    // it gathered). A record whose rays' relative standard error is over
+    // `ray_noise` serves no point. Here the boxes hang 3 over the floor,
+    // so that the floor's records reach far, and they are noisy: the
+    // floor's points reuse them all but never when they must be quiet.
+    let (s, mesh, b) = boxes_under_a_light(12, 1.0, Vec3::new(0.3, 0.5, 0.3), 3.0);
+    let tree = ShooterTree::new(&s, &mesh);
+    let frames: Vec<Frame> = mesh
+        .elements
+        .iter()
+        .filter(|e| e.patch == 0)
+        .map(|e| (e.centre + 0.01 * Vec3::X, e.normal, e.patch))
+        .collect();
+    let reused = |ray_noise: f32| {
+        let settings = VertexGather {
+            source_passes: 1,
+            ray_noise,
+            ..VertexGather::default()
+        };
+        let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+        gather.at_points(&frames);
+        gather.reflected_reuse().0
+    };
+    let (quiet, any) = (reused(0.02), reused(f32::INFINITY));
+    eprintln!("reused: {quiet} of quiet records, {any} of any");
+    assert!(any > frames.len() / 4, "only {any} of {} reused at all", frames.len());
+    assert!(quiet < any / 2, "{quiet} reused quiet records, {any} any");
+}
