@@ -214,7 +214,7 @@ pub static TUNING: &[TuningKey] = &[
     },
     TuningKey {
         name: "reflected_reuse",
-        help: "Ward's error bound for a display point taking its reflected light from the element centres instead of gathering it (0: never)",
+        help: "Ward's error bound for a display point taking its reflected light from the element centres instead of gathering it, from centres whose hemisphere rays agreed within 2% only (0: never)",
         get: |j| gather(j).reuse.to_string(),
         set: |j, v| {
             let reuse: f32 = parse(v)?;
