@@ -22,7 +22,8 @@ use grid::Grid;
 /// Relative tolerance (to the patch size) under which two vertices of one
 /// patch count as the same point.
 const DUPLICATE_TOL: f64 = 1e-6;
-/// Relative tolerance (to the patch size) for a vertex to lie on an edge.
+/// Relative tolerance (to the patch's width: its area over its size) for
+/// a vertex to lie on an edge.
 const ON_EDGE_TOL: f64 = 1e-5;
 /// Relative tolerance (to the scene extent) for a vertex to lie on its plane.
 const PLANE_TOL: f64 = 1e-4;
@@ -206,7 +207,13 @@ impl Mesh {
                 "patch {p}: element areas sum to {area_sum:e}, the patch area is {patch_area:e}"
             ));
         }
-        self.check_patch_topology(p, range, &used, size)
+        // A vertex within ON_EDGE_TOL of the patch's width of an edge is
+        // on it (and no closer than a few f32 steps could tell): of its
+        // length, a partition's 3 cm underside 14.8 m long took a vertex
+        // 0.14 mm from a long diagonal for a T-junction.
+        let width = patch_area / size.max(f64::MIN_POSITIVE);
+        let edge_tol = (ON_EDGE_TOL * width.min(size)).max(4.0 * f32_step);
+        self.check_patch_topology(p, range, &used, size, edge_tol)
     }
 
     fn check_ranges(&self, scene: &Scene) -> Result<(), String> {
@@ -260,9 +267,9 @@ impl Mesh {
         range: std::ops::Range<u32>,
         used: &[u32],
         size: f64,
+        edge_tol: f64,
     ) -> Result<(), String> {
         let dup_tol = DUPLICATE_TOL * size;
-        let edge_tol = ON_EDGE_TOL * size;
         let elements = &self.elements[range.start as usize..range.end as usize];
         let grid = (used.len() > BRUTE_FORCE_VERTICES).then(|| {
             // Cells of about the median edge: discontinuity meshes mix
@@ -330,7 +337,10 @@ impl Mesh {
                     }
                     if (aw - t * dir).length() < edge_tol {
                         return Some(format!(
-                            "patch {p}: T-junction, vertex {w} lies inside edge {ia}-{ib} of element {}",
+                            "patch {p}: T-junction, vertex {w} (at {}) lies inside edge {ia}-{ib} (from {} to {}) of element {}",
+                            self.vertices[w as usize],
+                            self.vertices[ia as usize],
+                            self.vertices[ib as usize],
                             range.start as usize + offset
                         ));
                     }
@@ -476,6 +486,52 @@ mod tests {
         holed.elements.pop();
         holed.patch_elements = one_range(2);
         fails_with(&s, &holed, "element areas sum to");
+    }
+
+    #[test]
+    fn a_long_thin_patch_keeps_a_vertex_near_a_diagonal_apart_from_it() {
+        // Regression (an office's partition, 14.8 m long and 3 cm wide,
+        // its underside discontinuity-meshed): a vertex on the long side
+        // 1.5 mm short of a diagonal's end lies 0.14 mm from the diagonal,
+        // under a tolerance of 1e-5 of the patch's length but far over one
+        // of its width. A vertex really inside the diagonal is still a
+        // T-junction.
+        let p = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        let corners = [p(0.6, 1.35), p(15.4, 1.35), p(15.4, 1.38), p(0.6, 1.38)];
+        let s = scene(&[&corners]);
+        let mut points = corners.to_vec();
+        // 4: a, on the near side; 5: b, the diagonal's end on the far
+        // side; 6: w, just short of b.
+        points.extend([p(2.936_842, 1.35), p(3.260_216_7, 1.38), p(3.258_713_2, 1.38)]);
+        let tri = |c: [u32; 3], points: &[Vec3]| {
+            let mut e = quad([c[0], c[1], c[2], 0], points, 0);
+            e.corner_count = 3;
+            let pts: Vec<Vec3> = c.iter().map(|&i| points[i as usize]).collect();
+            (e.area, e.centre) = crate::mesh::uniform::polygon_area_centroid(&pts);
+            e
+        };
+        let elements = |points: &[Vec3], near_diagonal: &[[u32; 3]]| {
+            let mut list: Vec<Element> = [[0, 4, 6], [0, 6, 3], [4, 1, 5], [1, 2, 5]]
+                .iter()
+                .map(|&c| tri(c, points))
+                .collect();
+            list.extend(near_diagonal.iter().map(|&c| tri(c, points)));
+            list
+        };
+        let thin = Mesh {
+            vertices: points.clone(),
+            elements: elements(&points, &[[4, 5, 6]]),
+            patch_elements: one_range(5),
+        };
+        thin.sanity_check(&s).expect("a sliver, not a T-junction");
+        // 7: the diagonal's midpoint, a corner on w's side only.
+        points.push(0.5 * (points[4] + points[5]));
+        let split = Mesh {
+            vertices: points.clone(),
+            elements: elements(&points, &[[4, 7, 6], [7, 5, 6]]),
+            patch_elements: one_range(6),
+        };
+        fails_with(&s, &split, "T-junction");
     }
 
     #[test]
