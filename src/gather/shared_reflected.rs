@@ -52,16 +52,27 @@ pub(super) struct Sample {
     pub(super) rays: f32,
 }
 
-/// The samples by surface and place, and who stands for whom.
+/// The samples by surface and place, to find who stands for whom. The
+/// neighbours are found again each time they are wanted, not kept: kept,
+/// an office under 100 panels (2.2 M display vertices, dense along its
+/// shadow lines, reaching metres) held them in gigabytes.
 pub(super) struct Sharing {
-    /// Per sample, its neighbours (itself included) and their weights.
-    neighbours: Vec<Vec<(u32, f32)>>,
+    /// The grid's cell width; `None` when no sample reaches anywhere
+    /// (each stands alone).
+    cell: Option<f32>,
+    /// The samples that share, by surface and cell.
+    grid: HashMap<(u32, [i64; 3]), Vec<u32>>,
+}
+
+/// How far a sample's light stands for others'.
+fn radius(s: &Sample) -> f32 {
+    SHARE_ERROR * s.reach
 }
 
 impl Sharing {
-    /// The neighbours of each of `samples` within [`SHARE_ERROR`].
+    /// The grid of `samples` within which their neighbours under
+    /// [`SHARE_ERROR`] are found.
     pub(super) fn new(samples: &[Sample]) -> Self {
-        let radius = |s: &Sample| SHARE_ERROR * s.reach;
         // Cells as wide as most samples' radius: a wider one is cut to
         // its 27 cells (fewer neighbours, never a wrong one).
         let mut radii: Vec<f32> = samples
@@ -71,7 +82,8 @@ impl Sharing {
             .collect();
         if radii.is_empty() {
             return Sharing {
-                neighbours: (0..samples.len()).map(|i| vec![(i as u32, 1.0)]).collect(),
+                cell: None,
+                grid: HashMap::new(),
             };
         }
         let at = ((radii.len() * 9) / 10).min(radii.len() - 1);
@@ -84,44 +96,46 @@ impl Sharing {
                     .push(i as u32);
             }
         }
-        let neighbours = samples
-            .par_iter()
-            .enumerate()
-            .map(|(i, s)| {
-                let mut out = vec![(i as u32, 1.0)];
-                if !radius(s).is_finite() {
-                    return out;
+        Sharing {
+            cell: Some(cell),
+            grid,
+        }
+    }
+
+    /// Calls `visit(j, w)` for sample `i` itself (weight 1) and each of
+    /// its neighbours `j` (weight `w`, falling to 0 at [`SHARE_ERROR`]).
+    fn neighbours(&self, i: usize, samples: &[Sample], mut visit: impl FnMut(u32, f32)) {
+        visit(i as u32, 1.0);
+        let s = &samples[i];
+        let Some(cell) = self.cell.filter(|_| radius(s).is_finite()) else {
+            return;
+        };
+        for key in cells_around(s.point, cell) {
+            for &j in self.grid.get(&(s.surface, key)).into_iter().flatten() {
+                let o = &samples[j as usize];
+                if j as usize == i {
+                    continue;
                 }
-                for key in cells_around(s.point, cell) {
-                    for &j in grid.get(&(s.surface, key)).into_iter().flatten() {
-                        let o = &samples[j as usize];
-                        if j as usize == i {
-                            continue;
-                        }
-                        let reach = s.reach.min(o.reach);
-                        let turn = (1.0 - s.normal.dot(o.normal)).max(0.0).sqrt();
-                        let error = s.point.distance(o.point) / reach + turn;
-                        if error < SHARE_ERROR {
-                            let w = 1.0 - error / SHARE_ERROR;
-                            out.push((j, w * w));
-                        }
-                    }
+                let reach = s.reach.min(o.reach);
+                let turn = (1.0 - s.normal.dot(o.normal)).max(0.0).sqrt();
+                let error = s.point.distance(o.point) / reach + turn;
+                if error < SHARE_ERROR {
+                    let w = 1.0 - error / SHARE_ERROR;
+                    visit(j, w * w);
                 }
-                out
-            })
-            .collect();
-        Sharing { neighbours }
+            }
+        }
     }
 
     /// The rays sample `i`'s pooled value stands on, as an effective
     /// count: `(sum w r)^2 / sum w^2 r` (its own rays when alone).
     pub(super) fn effective_rays(&self, i: usize, samples: &[Sample]) -> f32 {
         let (mut sum, mut squares) = (0.0f32, 0.0f32);
-        for &(j, w) in &self.neighbours[i] {
+        self.neighbours(i, samples, |j, w| {
             let r = samples[j as usize].rays;
             sum += w * r;
             squares += w * w * r;
-        }
+        });
         if squares > 0.0 {
             sum * sum / squares
         } else {
@@ -132,15 +146,15 @@ impl Sharing {
     /// Every sample's reflected light pooled with its neighbours', each
     /// weighted by its rays.
     pub(super) fn pooled(&self, samples: &[Sample]) -> Vec<Vec3> {
-        self.neighbours
-            .par_iter()
-            .map(|near| {
+        (0..samples.len())
+            .into_par_iter()
+            .map(|i| {
                 let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
-                for &(j, w) in near {
+                self.neighbours(i, samples, |j, w| {
                     let s = &samples[j as usize];
                     sum += w * s.rays * s.reflected;
                     weight += w * s.rays;
-                }
+                });
                 if weight > 0.0 {
                     sum / weight
                 } else {

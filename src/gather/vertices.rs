@@ -261,6 +261,7 @@ impl FinalGather<'_> {
             .collect();
         let sharing = Sharing::new(&samples);
         let short: Vec<usize> = (0..samples.len())
+            .into_par_iter()
             .filter(|&i| sharing.effective_rays(i, &samples) < rays as f32)
             .collect();
         self.pooled[0] += samples.len();
