@@ -34,7 +34,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::exposure::{element_grids, exposed_points, ExposedPart};
-use super::many_lights::{shared_visible_share, FacedLight};
+use super::many_lights::{brightest_first, shared_visible_share, FacedLight};
 use super::is_even;
 use super::receiver::Receiver;
 use super::Gather;
@@ -316,8 +316,7 @@ impl Gather<'_> {
         if faced.len() <= ALL_EMITTERS {
             return faced.iter().map(|l| own_rays(l, rng)).sum();
         }
-        faced.select_nth_unstable_by(OWN_RAYS_LIGHTS - 1, |a, b| b.gives.total_cmp(&a.gives));
-        let (own, shared) = faced.split_at(OWN_RAYS_LIGHTS);
+        let (own, shared) = brightest_first(&mut faced, OWN_RAYS_LIGHTS);
         let share =
             shared_visible_share(&at, shared, &self.sources, &self.occluders, SHARED_RAYS, rng);
         let rest: Vec3 = shared

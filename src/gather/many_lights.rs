@@ -70,19 +70,16 @@ pub(super) fn direct_light(
 ) -> Vec3 {
     let most = settings.exact_lights.max(1);
     let exact_count = match lights.len() >= most.saturating_add(FEWEST_SHARED) {
-        true => {
-            lights.select_nth_unstable_by(most - 1, |a, b| b.gives.total_cmp(&a.gives));
-            most
-        }
+        true => most,
         false => lights.len(),
     };
-    let (exact, shared) = lights.split_at(exact_count);
+    let (exact, shared) = brightest_first(lights, exact_count);
     let share = match shared.is_empty() {
         true => 0.0,
         false => shared_visible_share(at, shared, sources, occluders, shared_rays(at), rng),
     };
     let mut direct = Vec3::ZERO;
-    for (k, light) in lights.iter().enumerate() {
+    for (k, light) in exact.iter().chain(shared).enumerate() {
         let src = &sources[light.node as usize];
         let ff = match k < exact.len() {
             true => at.visible_form_factor(light.exact, src, light.near, occluders, settings, rng),
@@ -94,6 +91,19 @@ pub(super) fn direct_light(
         direct += src.radiosity * ff;
     }
     direct
+}
+
+/// `lights` split into the `count` that give most (in no order) and the
+/// rest.
+pub(super) fn brightest_first(
+    lights: &mut [FacedLight],
+    count: usize,
+) -> (&[FacedLight], &[FacedLight]) {
+    let count = count.min(lights.len());
+    if count > 0 && count < lights.len() {
+        lights.select_nth_unstable_by(count - 1, |a, b| b.gives.total_cmp(&a.gives));
+    }
+    lights.split_at(count)
 }
 
 /// Rays of the shared estimate: half what one light in a penumbra gets,

@@ -456,18 +456,15 @@ impl<'a> FinalGather<'a> {
             let rho = Some(&gather.element_rho[..]);
             let gathered = gather_centres(&gather, rho, Some(false), linking, None, meter)?;
             let reach = reach.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.reach()).collect());
-            // Only records as quiet as a point's own rays would be: the
-            // centres send half the rays and no more where they disagree,
-            // and a point that took a noisy record's light showed a smooth
-            // blotch of its noise (an office ceiling lit only by reflected
-            // light: 6.5% off where it reused, 4.0% where it gathered).
             let noise = noise.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.ray_noise()).collect());
-            let records = centre_records(&frames, &gathered, &reach, &exposed, solved)
-                .into_iter()
-                .zip(noise)
-                .filter(|(_, noise)| *noise <= settings.ray_noise)
-                .map(|(record, _)| record)
-                .collect();
+            let records = centre_records(
+                &frames,
+                &gathered,
+                (&reach, &noise),
+                settings.ray_noise,
+                &exposed,
+                solved,
+            );
             gather.reflected_cache = Some(ReflectedCache::new(records, settings.reuse));
         }
         gather.hemisphere_rays.set_rays(settings.hemisphere_rays);

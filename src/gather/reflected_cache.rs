@@ -219,21 +219,26 @@ impl HarmonicDistance {
 
 /// The reflected cache's records: every exposed element centre's
 /// reflected light (`gathered` at `frames`) and how far it holds
-/// (`reach`).
+/// (`reach`), where its hemisphere rays' relative standard error
+/// (`noise`) is within `max_noise`: a point that took a noisy record's
+/// light showed a smooth blotch of its noise (the centres send half the
+/// rays, and none more where they disagree; an office ceiling lit only by
+/// reflected light read 6.5% off where it reused, 4.0% where it gathered).
 pub(super) fn centre_records(
     frames: &[Frame],
     gathered: &[(Vec3, Gathered)],
-    reach: &[f32],
+    (reach, noise): (&[f32], &[f32]),
+    max_noise: f32,
     exposed: &[ExposedPart],
     mesh: &Mesh,
 ) -> Vec<Record> {
     frames
         .iter()
-        .zip(gathered.iter().zip(reach))
+        .zip(gathered.iter().zip(reach.iter().zip(noise)))
         .zip(exposed.iter().zip(&mesh.elements))
-        .filter(|(_, (part, _))| part.share > 0.0)
+        .filter(|((_, (_, (_, &noise))), (part, _))| part.share > 0.0 && noise <= max_noise)
         .map(
-            |((&(point, normal, patch), ((_, g), &reach)), (_, e))| Record {
+            |((&(point, normal, patch), ((_, g), (&reach, _))), (_, e))| Record {
                 point,
                 normal,
                 patch,
