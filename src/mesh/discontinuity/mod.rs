@@ -43,6 +43,7 @@ mod cdt;
 mod conform;
 mod project;
 mod shaft;
+mod shares;
 mod silhouette;
 #[cfg(test)]
 mod tests;
@@ -50,6 +51,7 @@ pub mod visibility;
 
 use arrange::Arrangement;
 use project::{collect_segments, inside_convex, Frame};
+use shares::LightShares;
 use silhouette::Silhouettes;
 #[cfg(any(test, feature = "internals"))]
 pub use visibility::cpu_blockers;
@@ -67,6 +69,8 @@ pub enum ShadowDetail {
     /// vertices the image hardly shows, and in a scene of many small
     /// polygons (`rfield`'s letters, a scan, a tessellated sphere) they
     /// would be nearly all of the mesh, and of the final gather's points.
+    /// Under several emitters, each emitter's lines only where it gives
+    /// [`shares::DISPLAY_MIN_SHARE`] of the unoccluded light.
     Display(f32),
 }
 
@@ -247,6 +251,12 @@ pub fn discontinuity_mesh_metered(
         .count();
     let extent = f64::from(scene.extent());
     let extent = if extent.is_finite() { extent } else { 0.0 };
+    // A display mesh takes each emitter's lines only where it gives a
+    // good part of the light (`shares`).
+    let shares = match options.detail {
+        ShadowDetail::Display(edge) => LightShares::new(scene, &emitters, edge),
+        ShadowDetail::Full => None,
+    };
 
     // The extra points of each patch (one pass over them, not one a patch).
     let mut extra: Vec<Vec<glam::Vec3>> = vec![Vec::new(); patches.len()];
@@ -259,6 +269,7 @@ pub fn discontinuity_mesh_metered(
     // Pass 1: segments and arrangement of every patch.
     let mut arrangements: Vec<Option<Arrangement>> = Vec::with_capacity(patches.len());
     let mut segments: Vec<(DVec2, DVec2)> = Vec::new();
+    let mut lines: Vec<(DVec2, DVec2)> = Vec::new();
     for (t, frame) in frames.iter().enumerate() {
         meter.add(1)?;
         let Some(frame) = frame else {
@@ -268,7 +279,9 @@ pub fn discontinuity_mesh_metered(
         let start = Instant::now();
         segments.clear();
         if receivers[t] && !is_emitter(t) {
-            for &e in &emitters {
+            let target = shares.as_ref().map(|s| s.for_target(frame));
+            for (k, &e) in emitters.iter().enumerate() {
+                lines.clear();
                 collect_segments(
                     scene,
                     frame,
@@ -278,9 +291,18 @@ pub fn discontinuity_mesh_metered(
                     &silhouettes,
                     options,
                     extent,
+                    &mut lines,
                     &mut segments,
                     &mut stats,
                 );
+                match &target {
+                    Some(target) => {
+                        for &(a, b) in &lines {
+                            target.keep(k, a, b, &mut segments);
+                        }
+                    }
+                    None => segments.extend_from_slice(&lines),
+                }
             }
         }
         stats.segments += segments.len();

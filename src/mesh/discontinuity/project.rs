@@ -276,7 +276,8 @@ pub(super) fn inside_convex(poly: &[DVec2], q: DVec2, tol: f64) -> bool {
     })
 }
 
-/// All VE, EV and contact segments of emitter `e` on target `t`, clipped.
+/// The VE and EV segments (`lines`) and the contact segments (`contacts`)
+/// of emitter `e` on target `t`, clipped.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn collect_segments(
     scene: &Scene,
@@ -287,7 +288,8 @@ pub(super) fn collect_segments(
     silhouettes: &Silhouettes,
     options: &DiscontinuityOptions,
     extent: f64,
-    out: &mut Vec<(DVec2, DVec2)>,
+    lines: &mut Vec<(DVec2, DVec2)>,
+    contacts: &mut Vec<(DVec2, DVec2)>,
     stats: &mut DiscontinuityStats,
 ) {
     let patches = &scene.patches;
@@ -324,7 +326,7 @@ pub(super) fn collect_segments(
                         }
                         let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
                         if let Some((a, b2)) = project_segment(frame, v, p0, p1, lo) {
-                            clip(a, b2, out);
+                            clip(a, b2, lines);
                         }
                     }
                 }
@@ -368,7 +370,7 @@ pub(super) fn collect_segments(
                         continue;
                     }
                     if let Some((a, b2)) = project_ev(frame, w.as_dvec3(), ev[i], ev[j], lo) {
-                        clip(a, b2, out);
+                        clip(a, b2, lines);
                     }
                 }
             }
@@ -383,7 +385,7 @@ pub(super) fn collect_segments(
             for k in 0..bv.len() {
                 let (p0, p1) = (bv[k].as_dvec3(), bv[(k + 1) % bv.len()].as_dvec3());
                 if frame.height(p0).abs() <= lo && frame.height(p1).abs() <= lo {
-                    clip(frame.to_2d(p0), frame.to_2d(p1), out);
+                    clip(frame.to_2d(p0), frame.to_2d(p1), contacts);
                 }
             }
         }

@@ -3,7 +3,7 @@ use proptest::prelude::*;
 
 use super::*;
 use crate::mesh::testutil;
-use crate::scene::{load_builtin, Material, Scene};
+use crate::scene::{load_builtin, Material, Patch, Scene};
 
 fn builtin(name: &str) -> Scene {
     load_builtin(name)
@@ -599,4 +599,49 @@ fn display_detail_keeps_the_lines_on_wide_patches_only() {
     // The blocker is seen by the light too, but gets no lines of its own.
     assert!(count(&shown, 1) <= count(&full, 1));
     assert_eq!(count(&shown, 1), 1, "one triangle");
+}
+
+/// `simple` with a second light like its own, 3 units to the side, of
+/// `radiance` times its radiance.
+fn with_second_light(scene: &Scene, radiance: f32) -> Scene {
+    let mut scene = scene.clone();
+    let light = scene.patches[2].clone();
+    let emission = scene.materials[light.material].emission * radiance;
+    scene.materials.push(Material {
+        name: "second light".into(),
+        reflectance: Vec3::ZERO,
+        emission,
+    });
+    scene.patches.push(Patch {
+        vertices: light.vertices.iter().map(|v| *v + Vec3::X * 3.0).collect(),
+        material: scene.materials.len() - 1,
+        ..light
+    });
+    scene
+}
+
+/// Under several lights a display mesh takes a light's shadow lines only
+/// where it gives a tenth of the unoccluded light (`shares`): a second
+/// light a thousandth as bright adds lines to the thesis's mesh and none
+/// to the display mesh; one as bright adds lines to both.
+#[test]
+fn a_display_mesh_takes_a_lights_shadow_lines_only_where_it_gives_a_good_part_of_the_light() {
+    let one = builtin("simple");
+    let dim = with_second_light(&one, 1e-3);
+    let bright = with_second_light(&one, 1.0);
+    let full = DiscontinuityOptions::default();
+    // Receivers wider than 1.6 units: the floor only.
+    let display = DiscontinuityOptions {
+        detail: ShadowDetail::Display(1.0),
+        ..Default::default()
+    };
+    let floor = |scene: &Scene, options: &DiscontinuityOptions| {
+        let (mesh, _) = mesh_of(scene, options);
+        check(scene, &mesh);
+        mesh.patch_elements[0].len()
+    };
+    assert!(floor(&dim, &full) > floor(&one, &full));
+    assert_eq!(floor(&dim, &display), floor(&one, &display));
+    assert_eq!(floor(&one, &display), floor(&one, &full), "one light: every line");
+    assert!(floor(&bright, &display) > floor(&one, &display));
 }
