@@ -1,13 +1,15 @@
 //! Geometry shared by every stage, written once: Newell normals and polygon
 //! areas, tangent frames, the disjoint sets that join touching pieces
 //! (shared edges, smooth surfaces), a convex polygon's point nearest to
-//! another, and the reverse-Z frusta of the hemicube, the discontinuity
-//! mesher's visibility tiles and the camera.
+//! another, the point-to-polygon form factor (`point_form_factor`), and the
+//! reverse-Z frusta of the hemicube, the discontinuity mesher's visibility
+//! tiles and the camera.
 
 use glam::{DVec3, Vec3};
 
 pub mod bvh_layout;
 pub mod frustum;
+pub mod point_form_factor;
 
 /// Newell's normal: twice the vector area of a (possibly non-planar)
 /// polygon, pointing to the side from which its vertices run

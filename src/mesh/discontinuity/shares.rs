@@ -11,7 +11,7 @@
 use glam::{DVec2, DVec3};
 
 use super::project::Frame;
-use crate::formfactor::analytic::{point_to_distant_polygon, point_to_polygon};
+use crate::geom::point_form_factor::{point_to_distant_polygon, point_to_polygon};
 use crate::scene::Scene;
 
 /// A display mesh takes an emitter's shadow lines where that emitter gives
