@@ -540,6 +540,9 @@ def views_section(linked):
              "scene (across the room, down at the floor, low over it). Errors are relative RMS over the lit "
              "pixels, with the reference's own noise (from two independent halves) taken out in quadrature. Oversample K: vkrad drew "
              "at K times the size, box-filtered down, which takes its edge antialiasing out of the error. "
+             "Clear of emitters' outlines: over the lit pixels none of whose 8 neighbours sees an emitter "
+             "(a sliver of an emitter's corner can slip past the emitter mask and weigh like the surface; "
+             "measured only since 2026-12-07). "
              "The 2% goal is issue 44's.", ""]
     rows = []
     for rel, d in docs:
@@ -550,10 +553,14 @@ def views_section(linked):
         rows.append([f"[`{rel}`]({rel})", d.get("scene"), f"{d.get('oversample', 1)}",
                      f"`{d['vkrad_args']}`" if d.get("vkrad_args") else "defaults",
                      count(d.get("display_elements")), errs,
-                     pct(d.get("worst_rel_rmse_lit_noise_corrected")), pct(noise), secs(d.get("vkrad_wall_seconds")),
+                     pct(d.get("worst_rel_rmse_lit_noise_corrected")),
+                     " / ".join(pct(v.get("rel_rmse_clear_noise_corrected")) or "?" for v in views)
+                     if any(num(v.get("rel_rmse_clear_noise_corrected")) for v in views) else None,
+                     pct(noise), secs(d.get("vkrad_wall_seconds")),
                      f"{1000 * draws[len(draws) // 2]:.0f} ms" if draws else None, file_date(rel, d)])
     lines += table(["file", "scene", "oversample", "vkrad arguments", "display elements",
-                    "error per view (noise out)", "worst", "reference noise (max)", "vkrad wall", "draw / view",
+                    "error per view (noise out)", "worst", "clear of emitters' outlines", "reference noise (max)",
+                    "vkrad wall", "draw / view",
                     "date"], rows)
     lines += ["", "Command: `cd bench/pathtracer && python3 views.py --scene SCENE --size 128x128 --spp 2048 "
               "[--oversample 4] [--tag=T --vkrad-args=...]`; 2 cores, lavapipe, other work running "

@@ -17,7 +17,8 @@ floor, where contact shadows are.
 Metric, per view: compare.py's, relative RMSE over the lit pixels (the
 reference above 1% of its mean, no emitter seen directly), linear
 radiance; the reference's own noise is estimated from two independent
-halves and reported. --oversample K draws vkrad's views at K times the
+halves and reported. Also over the lit pixels clear of emitters' outlines
+(none of the eight neighbours sees an emitter; `beside_emitters`). --oversample K draws vkrad's views at K times the
 size and box-filters them down, so that what remains is the lit mesh's
 light, not vkrad's 16-sample edge antialiasing against the reference's
 thousands. Writes out/views-<scene>/ (references cached by camera, size
@@ -85,6 +86,25 @@ def reference(scene_path, obj, cam, size, spp, outdir):
     return ref, noise, lit, seconds
 
 
+def beside_emitters(ref, lit):
+    """The lit pixels next to (8-neighbours of) a pixel that sees an
+    emitter. A pixel that holds a sliver of an emitter's corner can slip
+    past the 64-sample emitter mask, and there the emitter's radiance,
+    tens of times the surface's, weighs in the reference by its area and in
+    vkrad's 16 samples by whether one falls on it: on office-100, from a
+    camera under its 100 panels, the lit mesh read 6.2% off with them and
+    2.7% without (raw, 16,384-spp reference)."""
+    lum = ref.mean(axis=2)
+    emitter = (lum > 0.01 * lum.mean()) & ~lit
+    padded = np.pad(emitter, 1)
+    h, w = emitter.shape
+    near = np.zeros_like(emitter)
+    for dy in range(3):
+        for dx in range(3):
+            near |= padded[dy:dy + h, dx:dx + w]
+    return near & lit
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--scene", default="cornell")
@@ -133,14 +153,19 @@ def main():
         x = C.read_exr(views[i]["output"])[..., :3].astype(np.float64)
         x = x.reshape(size[1], k, size[0], k, 3).mean(axis=(1, 3))
         err = C.rel_rmse(x, ref, lit)
+        clear = lit & ~beside_emitters(ref, lit)
+        err_clear = C.rel_rmse(x, ref, clear)
         rows.append({
             "camera": cam, "lit_pixels": int(lit.sum()), "rel_rmse_lit": err,
             "rel_rmse_lit_noise_corrected": float(np.sqrt(max(err * err - noise * noise, 0.0))),
+            "clear_pixels": int(clear.sum()), "rel_rmse_clear": err_clear,
+            "rel_rmse_clear_noise_corrected": float(np.sqrt(max(err_clear * err_clear - noise * noise, 0.0))),
             "bias_lit": C.mean_bias(x, ref, lit), "reference_noise": noise,
             "reference_seconds": ref_seconds,
             "draw_seconds": report["outputs"]["views"][i]["draw_seconds"],
         })
         C.log(f"view {i + 1}: rel RMSE {100 * err:.2f}% (reference noise {100 * noise:.2f}%), "
+              f"{100 * err_clear:.2f}% clear of emitters' outlines, "
               f"bias {100 * rows[-1]['bias_lit']:+.2f}%, {int(lit.sum())} lit pixels")
     out = {
         "scene": name, "date": datetime.date.today().isoformat(),
@@ -151,6 +176,7 @@ def main():
         "views": rows,
         "worst_rel_rmse_lit": max(r["rel_rmse_lit"] for r in rows),
         "worst_rel_rmse_lit_noise_corrected": max(r["rel_rmse_lit_noise_corrected"] for r in rows),
+        "worst_rel_rmse_clear_noise_corrected": max(r["rel_rmse_clear_noise_corrected"] for r in rows),
     }
     path = os.path.join(REPO, "bench", f"views-{name}{args.tag}.json")
     with open(path, "w") as fh:
