@@ -3,10 +3,11 @@
 //! [`DISPLAY_MIN_SHARE`] of the target's unoccluded direct light.
 //!
 //! A shadow line from one emitter is a step in the light of at most that
-//! emitter's part of it. Under a ceiling of 100 panels each gives a tenth
-//! of a floor point's light or less, and the lines of every panel, crossing
-//! one another, were nearly all of an office's display mesh (2.9 M of its
-//! 3.7 M elements on the floor alone). With one emitter every line stays.
+//! emitter's part of it. Under a ceiling of 100 panels each gives about a
+//! tenth of a floor point's light or less, and the lines of every panel,
+//! crossing one another, were nearly all of an office's display mesh (2.9 M
+//! of its 3.7 M elements on the floor alone). With one emitter every line
+//! stays.
 
 use glam::{DVec2, DVec3};
 
