@@ -5,7 +5,8 @@ use glam::{DVec3, Vec3};
 
 use super::{Source, VertexGather, MIN_REFLECTOR_RAYS};
 // Shared with glsl/gather_sources.comp (checked by src/gpu/contracts).
-use crate::formfactor::analytic::{clip_to_front, point_to_distant_polygon, point_to_polygon};
+use crate::formfactor::analytic::{clip_to_front, point_to_polygon};
+use crate::geom::point_form_factor::point_to_sized_polygon;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::{grid, Pcg32};
 use crate::gpu::rays::{CORNER_INSET, FIRST_RAYS};
@@ -124,21 +125,19 @@ impl Receiver {
 
     /// [`Self::unoccluded`] to the source of `node`, by the disc
     /// approximation where the node is small beside its distance
-    /// ([`point_to_distant_polygon`]: within 0.5%, and cheap, which
+    /// ([`point_to_distant_polygon`](crate::geom::point_form_factor::point_to_distant_polygon): within 0.5%, and cheap, which
     /// matters where a point faces hundreds of far lights).
     pub(super) fn unoccluded_node(&self, src: &Source, node: &Node) -> Option<f32> {
-        let distant = point_to_distant_polygon(
+        let f = point_to_sized_polygon(
             self.p.as_dvec3(),
             self.n.as_dvec3(),
+            &src.polygon,
             node.centre.as_dvec3(),
             src.normal.as_dvec3(),
             f64::from(node.radius),
             f64::from(node.polygon_area),
-        );
-        match distant {
-            Some(f) => (f > 0.0).then_some(f as f32),
-            None => self.unoccluded(src),
-        }
+        ) as f32;
+        (f > 0.0).then_some(f)
     }
 
     /// How many of `src`'s corners in front of the receiver it sees (each

@@ -124,3 +124,20 @@ pub const DISTANT: f64 = 0.05;
 /// Each plane's height over the other's centre, in radii, from which
 /// [`point_to_distant_polygon`] serves.
 pub const DISTANT_HEIGHT: f64 = 4.0;
+
+/// [`point_to_polygon`] to a polygon whose area centroid `centre`, unit
+/// `normal`, `radius` (about the centre) and `area` are known: by
+/// [`point_to_distant_polygon`] where that serves, else the contour
+/// integral.
+pub fn point_to_sized_polygon(
+    p: DVec3,
+    n: DVec3,
+    poly: &[DVec3],
+    centre: DVec3,
+    normal: DVec3,
+    radius: f64,
+    area: f64,
+) -> f64 {
+    point_to_distant_polygon(p, n, centre, normal, radius, area)
+        .unwrap_or_else(|| point_to_polygon(p, n, poly))
+}

@@ -279,7 +279,8 @@ pub fn discontinuity_mesh_metered(
         let start = Instant::now();
         segments.clear();
         if receivers[t] && !is_emitter(t) {
-            let target = shares.as_ref().map(|s| s.for_target(frame));
+            // Built when the first lines come (most targets have none).
+            let mut target = None;
             for (k, &e) in emitters.iter().enumerate() {
                 lines.clear();
                 collect_segments(
@@ -295,13 +296,14 @@ pub fn discontinuity_mesh_metered(
                     &mut segments,
                     &mut stats,
                 );
-                match &target {
-                    Some(target) => {
+                match &shares {
+                    Some(shares) if !lines.is_empty() => {
+                        let target = target.get_or_insert_with(|| shares.for_target(frame));
                         for &(a, b) in &lines {
                             target.keep(k, a, b, &mut segments);
                         }
                     }
-                    None => segments.extend_from_slice(&lines),
+                    _ => segments.extend_from_slice(&lines),
                 }
             }
         }

@@ -12,7 +12,7 @@
 use glam::{DVec2, DVec3};
 
 use super::project::Frame;
-use crate::geom::point_form_factor::{point_to_distant_polygon, point_to_polygon};
+use crate::geom::point_form_factor::point_to_sized_polygon;
 use crate::scene::Scene;
 
 /// A display mesh takes an emitter's shadow lines where that emitter gives
@@ -90,8 +90,7 @@ impl LightShares {
         if !(e.radiance > 0.0) {
             return 0.0;
         }
-        let f = point_to_distant_polygon(p, n, e.centre, e.normal, e.radius, e.area)
-            .unwrap_or_else(|| point_to_polygon(p, n, &e.polygon));
+        let f = point_to_sized_polygon(p, n, &e.polygon, e.centre, e.normal, e.radius, e.area);
         e.radiance * f
     }
 
