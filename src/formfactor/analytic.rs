@@ -16,7 +16,7 @@ use super::integrate::{mean_over_polygon, polygon_distance, Tolerance};
 use super::integrate::Integral;
 use crate::geom::newell;
 pub(crate) use crate::geom::point_form_factor::clip_to_front;
-pub use crate::geom::point_form_factor::{point_to_distant_polygon, point_to_polygon};
+pub use crate::geom::point_form_factor::point_to_polygon;
 #[cfg(any(test, feature = "internals"))]
 pub use crate::geom::polygon_area;
 use crate::mesh::Mesh;
@@ -279,6 +279,7 @@ pub fn element_and_vertex_form_factors_analytic(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::point_form_factor::point_to_distant_polygon;
 
     fn dv(x: f64, y: f64, z: f64) -> DVec3 {
         DVec3::new(x, y, z)
