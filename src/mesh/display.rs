@@ -13,7 +13,7 @@ use crate::mesh;
 use crate::scene::Scene;
 
 /// Default refinement passes of a discontinuity display mesh.
-pub const DISPLAY_REFINEMENTS: usize = 2;
+pub const DISPLAY_REFINEMENTS: usize = 4;
 
 /// What the display mesh is asked to be.
 #[derive(Debug, Clone, Copy)]
