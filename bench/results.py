@@ -513,13 +513,14 @@ def walkthrough_section(linked):
         vk = d.get("vkrad_cumulative_seconds") or []
         pt = d.get("pt_cumulative_seconds") or []
         errs = [v.get("vkrad_error") for v in views if num(v.get("vkrad_error"))]
-        rows.append([f"[`{rel}`]({rel})", d.get("scene"), len(views),
+        size = d.get("size") or []
+        rows.append([f"[`{rel}`]({rel})", d.get("scene"), "x".join(str(x) for x in size) or None, len(views),
                      f"{pct(min(errs))}–{pct(max(errs))}" if errs else None,
                      secs(vk[-1]) if vk else None, secs(pt[-1]) if pt and num(pt[-1]) else "did not reach",
                      ratio(pt[-1], vk[-1]) if pt and vk and num(pt[-1]) else None, file_date(rel, d)])
         lines_png = rel[:-5] + ".png"
         linked.add(lines_png)
-    lines += table(["file", "scene", "views", "vkrad error per view", "vkrad, all views s",
+    lines += table(["file", "scene", "size", "views", "vkrad error per view", "vkrad, all views s",
                     "path tracer, all views s", "path tracer / vkrad", "date"], rows)
     lines.append("")
     for rel, _ in docs:

@@ -5,6 +5,7 @@ view from scratch until it reaches vkrad's error on that view. Outside CI
 (needs setup.sh).
 
     python3 walkthrough.py --scene ../../../shared/scenes/mcguire/CornellBox-Sphere.obj
+    python3 walkthrough.py --scene rfield --size 512x512 --spp 1024
 
 Cameras: a dolly across the scene's bounds near its +z side, at about
 half height, looking back into the scene at targets that swing from side
@@ -98,7 +99,9 @@ def main():
     scene_path, name = C.resolve_scene(args.scene)
     obj = C.parse_obj(scene_path)
     cams = dolly_cameras(obj, args.views)
-    outdir = os.path.join(HERE, "out", f"walkthrough-{name}")
+    # The first races ran at 128x128; other sizes keep their own files.
+    label = name if size == (128, 128) else f"{name}-{size[0]}x{size[1]}"
+    outdir = os.path.join(HERE, "out", f"walkthrough-{label}")
     os.makedirs(outdir, exist_ok=True)
 
     views = [{**cam, "output": os.path.join(outdir, f"vkrad-{i + 1}.exr")} for i, cam in enumerate(cams)]
@@ -143,7 +146,7 @@ def main():
         "pt_cumulative_seconds": pt_cum, "views": rows,
         "machine": "2 cores, lavapipe for vkrad, Mitsuba 3 " + variant + " on the CPU",
     }
-    path = os.path.join(REPO, "bench", f"race-walkthrough-{name}.json")
+    path = os.path.join(REPO, "bench", f"race-walkthrough-{label}.json")
     with open(path, "w") as fh:
         json.dump(out, fh, indent=1)
     C.log(f"wrote {path}")
@@ -162,7 +165,7 @@ def main():
     ax.legend()
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    png = os.path.join(REPO, "bench", f"race-walkthrough-{name}.png")
+    png = os.path.join(REPO, "bench", f"race-walkthrough-{label}.png")
     fig.savefig(png, dpi=110)
     C.log(f"wrote {png}")
 
