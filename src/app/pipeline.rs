@@ -160,6 +160,9 @@ pub fn run_scene(
     } = solved;
     let mut gpu_times = solution.times.clone();
     let shown_elements = gathered.display.as_ref().and_then(DisplayMesh::shown_count);
+    let display_refinement = (gathered.display.as_ref())
+        .map(|d| d.refinement.clone())
+        .unwrap_or_default();
     let display_mesh = gathered.display.map(|d| d.mesh);
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
     let gathered_at_pixels = gathered.pixel_image.as_ref().map(|(_, counts)| *counts);
@@ -217,6 +220,7 @@ pub fn run_scene(
         mesh,
         display_mesh,
         shown_elements,
+        display_refinement,
         gathered: job.final_gather.is_some()
             && !matches!(interrupted, Some("gather" | "display mesh" | "solve")),
         vertex_radiosity: gathered.shown,

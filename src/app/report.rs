@@ -25,6 +25,8 @@ pub struct Report {
     /// How many of the display mesh's elements the image shows, when only
     /// their vertices were gathered (`Job::gather_unseen`).
     pub shown_elements: Option<usize>,
+    /// The display refinement's passes, in order (empty: none ran).
+    pub display_refinement: Vec<crate::mesh::display::RefinementPass>,
     /// Whether the vertex values shown were gathered (`Job::final_gather`).
     pub gathered: bool,
     /// The radiosity shown at every vertex of the display mesh (or of
@@ -161,6 +163,10 @@ impl Report {
                 "elements": m.elements.len(),
                 "vertices": m.vertices.len(),
                 "shown_elements": self.shown_elements,
+                "refinement_passes": self.display_refinement.iter().map(|p| serde_json::json!({
+                    "probes": p.probes,
+                    "splits": p.splits,
+                })).collect::<Vec<_>>(),
             })),
             "mesh": {
                 "elements": self.mesh.elements.len(),

@@ -148,6 +148,17 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
         ),
         None => {}
     }
+    if !r.display_refinement.is_empty() {
+        let splits: Vec<String> = (r.display_refinement.iter())
+            .map(|p| p.splits.to_string())
+            .collect();
+        let probes: usize = r.display_refinement.iter().map(|p| p.probes).sum();
+        println!(
+            "  refined   {} passes split {} elements where the gathered light left the interpolated one ({probes} points gathered to judge; --tune display_refinements)",
+            r.display_refinement.len(),
+            splits.join(" / "),
+        );
+    }
     println!(
         "  solve     {} shots, residual unshot {:.2e} of emitted power, {:.2}% of the radiosity shown{}",
         s.shots,

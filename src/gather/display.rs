@@ -6,7 +6,7 @@ use super::refine::{split_plan, Checked, DisplayRefinement};
 use crate::mesh::smooth::place_cells;
 use super::{FinalGather, Meter, VertexCache};
 use crate::mesh::build::Mesher;
-use crate::mesh::display::DisplayMesh;
+use crate::mesh::display::{DisplayMesh, RefinementPass};
 use crate::scene::Scene;
 
 /// What the gather of a display mesh gave.
@@ -71,6 +71,10 @@ pub fn shade_display(
         ) else {
             return Shaded::Partial(values);
         };
+        display.refinement.push(RefinementPass {
+            probes: plan.probes,
+            splits: plan.gathered.len(),
+        });
         if plan.is_empty() {
             break;
         }

@@ -53,6 +53,8 @@ pub struct Checked {
 pub struct SplitPlan {
     pub cuts: Cuts,
     pub gathered: Vec<(u32, Vec3, [f32; 3])>,
+    /// The points gathered to find them (midpoints and centroids).
+    pub probes: usize,
 }
 
 impl SplitPlan {
@@ -245,7 +247,10 @@ pub fn split_plan(
             Probe::Edge { .. } => checked.midpoints.insert((e.patch, place(at(*k, probe)))),
         };
     }
-    let mut plan = SplitPlan::default();
+    let mut plan = SplitPlan {
+        probes: probes.len(),
+        ..SplitPlan::default()
+    };
     for i in worst {
         let (k, probe) = probes[i];
         match probe {

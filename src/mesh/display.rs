@@ -51,6 +51,17 @@ pub struct DisplayMesh {
     /// The elements the image shows (`render::seen_elements`), when only
     /// they are gathered (no lit mesh is exported); `None`: all are.
     pub shown: Option<Vec<bool>>,
+    /// What each display refinement pass looked at and split, in order
+    /// (empty before the gather refines it).
+    pub refinement: Vec<RefinementPass>,
+}
+
+/// One display refinement pass: the points it gathered to judge the
+/// Gouraud image (edge midpoints and centroids) and the cuts it made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RefinementPass {
+    pub probes: usize,
+    pub splits: usize,
 }
 
 impl DisplayMesh {
@@ -130,6 +141,7 @@ pub fn display_mesh(
             mesher,
             edge,
             shown: None,
+            refinement: Vec::new(),
         })
     };
     let cap = first.as_ref().map(|b| b.max_elements as usize);

@@ -25,6 +25,7 @@ mod layout;
 mod lightmap;
 mod memory_limits;
 mod pixels;
+mod refinement;
 mod seams;
 mod shaders;
 mod shown;
