@@ -39,6 +39,12 @@ pub struct DisplayRefinement {
     pub min_edge: f32,
 }
 
+/// The area of an equilateral triangle of edge `min_edge`: a display
+/// element smaller than this is not split at its centroid.
+fn smallest_split_area(min_edge: f32) -> f32 {
+    0.25 * 3f32.sqrt() * min_edge * min_edge
+}
+
 /// Which places were gathered at already and found right (an element or
 /// edge a pass kept is not looked at again).
 #[derive(Default)]
@@ -163,8 +169,12 @@ pub fn split_plan(
         let (lo, hi) = corner_range(k);
         let gradient = hi - lo > settings.suspect * corner_mean(e, &levels).max(floor);
         let centre = place(e.centre);
+        // A centroid split keeps the element's edges, so its longest edge
+        // never shrinks: the area bounds how often one is split (each
+        // split a third), as the longest edge bounds a midpoint's.
         if gradient
             && longest_edge(display, k) >= settings.min_edge
+            && e.area >= smallest_split_area(settings.min_edge)
             && !checked.centres.contains(&centre)
             && centres.insert(centre)
         {
