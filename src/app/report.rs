@@ -165,6 +165,7 @@ impl Report {
                 "shown_elements": self.shown_elements,
                 "refinement_passes": self.display_refinement.iter().map(|p| serde_json::json!({
                     "probes": p.probes,
+                    "over_limit": p.over_limit,
                     "splits": p.splits,
                 })).collect::<Vec<_>>(),
             })),

@@ -37,7 +37,10 @@ pub fn shade_display(
     let refinement = DisplayRefinement {
         passes,
         suspect: 0.25,
-        tolerance: 0.05,
+        // Half the first 5%, which a low camera showed; the noise term
+        // keeps a noisy surface's gaps unsplit (bench/NOTES.md).
+        tolerance: 0.025,
+        noise_sigmas: 2.0,
         floor: 0.05,
         // Penumbrae are resolved to an eighth of the display edge.
         min_edge: display.edge / 8.0,
@@ -73,6 +76,7 @@ pub fn shade_display(
         };
         display.refinement.push(RefinementPass {
             probes: plan.probes,
+            over_limit: plan.over_limit,
             splits: plan.gathered.len(),
         });
         if plan.is_empty() {

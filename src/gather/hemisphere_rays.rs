@@ -198,7 +198,10 @@ pub(super) struct RayGathered {
     /// The nearest surface a ray met.
     pub(super) clearance: f32,
     /// The relative standard error of `reflected`'s luminance, from the
-    /// spread of what the rays read (0 where they read nothing).
+    /// spread of what the rays read (0 where they read nothing), as if
+    /// they were independent: their strata make the error smaller
+    /// (gathered over many random streams, a point on a floor among small
+    /// boxes spreads by 0.50-0.56 of it).
     pub(super) noise: f32,
     /// Rays sent.
     pub(super) rays: usize,
@@ -423,7 +426,9 @@ impl Gather<'_> {
     /// [`VertexGather::ray_noise`](super::VertexGather::ray_noise), more
     /// rays, as many as bring it there under [`MOST_RAYS_FACTOR`] times
     /// the first in all, traced on the CPU from `rng` as it stands after
-    /// the first rays' directions, and the two means pooled by rays. Why:
+    /// the first rays' directions, and the two means pooled by rays; with
+    /// the relative standard error that leaves (the first's over the root
+    /// of the rays' growth). Why:
     /// a surface lit only by reflected light (an office ceiling over
     /// downlights) shows the whole of its rays' noise, where one under a
     /// light hides it under the exact direct light; 256 rays everywhere
@@ -434,10 +439,10 @@ impl Gather<'_> {
         at: &Receiver,
         first: &RayGathered,
         rng: &mut Pcg32,
-    ) -> Vec3 {
+    ) -> (Vec3, f32) {
         let target = self.settings.ray_noise;
         if first.noise <= target || first.rays == 0 {
-            return first.reflected;
+            return (first.reflected, first.noise);
         }
         let wanted = (first.rays as f32 * (first.noise / target).powi(2)).ceil() as usize;
         let more = wanted.min(MOST_RAYS_FACTOR * first.rays) - first.rays;
@@ -447,7 +452,8 @@ impl Gather<'_> {
             .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
         let second = self.landings(origin, &directions, hits, None, None);
         let (a, b) = (first.rays as f32, second.rays as f32);
-        (first.reflected * a + second.reflected * b) / (a + b).max(1.0)
+        let reflected = (first.reflected * a + second.reflected * b) / (a + b).max(1.0);
+        (reflected, first.noise * (a / (a + b).max(1.0)).sqrt())
     }
 
     /// Whether the hemisphere rays are traced on the GPU: the scene
@@ -560,7 +566,7 @@ impl Gather<'_> {
                     };
                     let mut rng = Pcg32::new(SEED, stream);
                     self.hemisphere_directions(&at, self.hemisphere_rays.rays, &mut rng);
-                    self.more_rays_where_noisy(&at, &first, &mut rng)
+                    self.more_rays_where_noisy(&at, &first, &mut rng).0
                 })
                 .collect(),
         )

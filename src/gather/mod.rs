@@ -52,7 +52,7 @@ use self::settings::{CLOSE_FF, MIN_REFLECTOR_RAYS, NEAR_RADIUS};
 use self::shared_centres::SharedCentres;
 use self::sources::{sources, Source};
 use self::tail::Passes;
-pub use self::vertices::VertexCache;
+pub use self::vertices::{Probed, VertexCache};
 use crate::solve::hierarchy::ShooterTree;
 
 use crate::formfactor::raytrace::Occluders;
@@ -113,9 +113,13 @@ struct Gathered {
     /// The distance to the nearest surface met (measured only when
     /// recording).
     clearance: f32,
-    /// The standard error of the luminance of the light its hemisphere
-    /// rays read (part of `reflected`), from their spread; 0 without.
+    /// The standard error of the luminance of the light its first
+    /// hemisphere rays read (part of `reflected`), from their spread; 0
+    /// without.
     ray_error: f32,
+    /// ... and of what all its hemisphere rays read, the more rays a
+    /// noisy point sent included.
+    reflected_error: f32,
 }
 
 /// Radiosity at every vertex of `display`, gathered from the element
@@ -562,13 +566,24 @@ impl<'a> FinalGather<'a> {
         self.gather.light_at(frames, light, first_stream, meter)
     }
 
-    /// [`FinalGather::at_points`], counting them on `meter`.
+    /// [`FinalGather::at_points`], counting them on `meter`, each with
+    /// the standard error of its luminance from its hemisphere rays.
     pub fn at_points_metered(
         &self,
         frames: &[(Vec3, Vec3, u32)],
         meter: &mut Meter,
-    ) -> Option<Vec<[f32; 3]>> {
-        self.gather.at_points(frames, None, meter)
+    ) -> Option<Vec<Probed>> {
+        let gathered = self.gather.gather_points(frames, None, None, Linking::None, None, meter)?;
+        Some(
+            gathered
+                .into_iter()
+                .zip(frames)
+                .map(|((b, g), frame)| Probed {
+                    value: b.to_array(),
+                    noise: self.reflectance_level(frame.2) * g.reflected_error,
+                })
+                .collect(),
+        )
     }
 }
 

@@ -80,6 +80,7 @@ impl Default for Gathered {
             distance: HarmonicDistance::default(),
             clearance: f32::INFINITY,
             ray_error: 0.0,
+            reflected_error: 0.0,
         }
     }
 }
@@ -436,10 +437,12 @@ impl Gather<'_> {
             let by_rays = self.by_hemisphere_rays(at, rng, ahead, distance, links.as_deref_mut());
             // A point that records its links keeps its first rays: the
             // later passes replay them with their weights.
-            gathered.reflected += match linking {
-                true => by_rays.reflected,
+            let (reflected, noise) = match linking {
+                true => (by_rays.reflected, by_rays.noise),
                 false => self.more_rays_where_noisy(at, &by_rays, rng),
             };
+            gathered.reflected += reflected;
+            gathered.reflected_error = noise * luminance(reflected.to_array());
             if wanted.record {
                 gathered.clearance = gathered.clearance.min(by_rays.clearance);
             }

@@ -12,7 +12,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::Vec3;
 
-use super::{FinalGather, Meter};
+use super::{FinalGather, Meter, Probed};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
@@ -29,8 +29,12 @@ pub struct DisplayRefinement {
     /// share of the local level.
     pub suspect: f32,
     /// Split where the centroid's gap exceeds this share of the local
-    /// level (the larger of the centroid's and the corners' mean).
+    /// level (the larger of the centroid's and the corners' mean) ...
     pub tolerance: f32,
+    /// ... and this many times the gap's standard error, from the noise
+    /// of the gathered values (a gap within their noise is no error of
+    /// the mesh: splitting it adds elements and no accuracy).
+    pub noise_sigmas: f32,
     /// Levels under this share of the mean receiver level count as this
     /// (deep shadow: a large relative gap there is a small one in the
     /// image).
@@ -61,6 +65,9 @@ pub struct SplitPlan {
     pub gathered: Vec<(u32, Vec3, [f32; 3])>,
     /// The points gathered to find them (midpoints and centroids).
     pub probes: usize,
+    /// Those whose gap was over its limit (split, or left by the budget
+    /// to a later pass).
+    pub over_limit: usize,
 }
 
 impl SplitPlan {
@@ -215,32 +222,39 @@ pub fn split_plan(
         })
         .collect();
     meter.total += probes.len();
-    let mut gathered = vec![[0.0f32; 3]; probes.len()];
+    let mut probed = vec![Probed::default(); probes.len()];
     let values = gather.at_element_points_metered(display, &at_edges, meter)?;
     for (&i, value) in edges.iter().zip(values) {
-        gathered[i] = value;
+        probed[i] = value;
     }
     let values = gather.at_points_metered(&at_centres, meter)?;
     for (&i, value) in centre_probes.iter().zip(values) {
-        gathered[i] = value;
+        probed[i] = value;
     }
     // The gap is judged against the local level: the larger of the
-    // gathered and the Gouraud value (at least the floor).
+    // gathered and the Gouraud value (at least the floor), and against
+    // its noise: the probe's, and its corners' mean's (taken as noisy as
+    // the probe).
     let gaps: Vec<CentroidGap> = probes
         .iter()
-        .zip(&gathered)
-        .map(|(&(element, probe), &value)| {
-            let seen = luminance(value);
-            let gouraud = match probe {
-                Probe::Centre => corner_mean(&display.elements[element], &levels),
+        .zip(&probed)
+        .map(|(&(element, probe), probed)| {
+            let seen = luminance(probed.value);
+            let (gouraud, corners) = match probe {
+                Probe::Centre => {
+                    let e = &display.elements[element];
+                    (corner_mean(e, &levels), e.corners().len())
+                }
                 Probe::Edge { ends, .. } => {
-                    0.5 * (levels[ends[0] as usize] + levels[ends[1] as usize])
+                    (0.5 * (levels[ends[0] as usize] + levels[ends[1] as usize]), 2)
                 }
             };
+            let gap_error = probed.noise * (1.0 + 1.0 / corners as f32).sqrt();
             CentroidGap {
                 element,
                 gap: (seen - gouraud).abs(),
-                limit: settings.tolerance * seen.max(gouraud).max(floor),
+                limit: (settings.tolerance * seen.max(gouraud).max(floor))
+                    .max(settings.noise_sigmas * gap_error),
             }
         })
         .collect();
@@ -259,6 +273,7 @@ pub fn split_plan(
     }
     let mut plan = SplitPlan {
         probes: probes.len(),
+        over_limit: gaps.iter().filter(|g| g.gap > g.limit).count(),
         ..SplitPlan::default()
     };
     for i in worst {
@@ -267,7 +282,7 @@ pub fn split_plan(
             Probe::Centre => plan.cuts.centres.insert(k),
             Probe::Edge { key, .. } => plan.cuts.edges.insert(key),
         };
-        plan.gathered.push((display.elements[k].patch, at(k, &probe), gathered[i]));
+        plan.gathered.push((display.elements[k].patch, at(k, &probe), probed[i].value));
     }
     Some(plan)
 }

@@ -17,6 +17,7 @@ use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::{vertex_frames, VERTEX_INSET};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
 use crate::mesh::Mesh;
+use crate::output::tonemap::luminance;
 use crate::scene::Scene;
 
 /// Gathered values kept by place, so that a refined display mesh gathers
@@ -117,10 +118,10 @@ impl FinalGather<'_> {
             .total
             .saturating_sub(display.vertices.len() - frames.len());
         let vals = self.at_display_points(&frames, meter)?;
-        for (&g, (value, direct)) in todo.iter().zip(vals) {
+        for (&g, light) in todo.iter().zip(vals) {
             let at = key(groups.members[g].0);
-            cache.values.insert(at, value);
-            cache.direct.insert(at, direct);
+            cache.values.insert(at, light.value);
+            cache.direct.insert(at, light.direct);
         }
         // Each vertex its group's value, the direct light turned to its
         // own facet.
@@ -162,7 +163,7 @@ impl FinalGather<'_> {
         display: &Mesh,
         points: &[(Vec3, Vec3, Vec<u32>)],
         meter: &mut Meter,
-    ) -> Option<Vec<[f32; 3]>> {
+    ) -> Option<Vec<Probed>> {
         let scene = self.gather.scene;
         let mut frames: Vec<Frame> = points
             .iter()
@@ -187,9 +188,12 @@ impl FinalGather<'_> {
             gathered
                 .into_iter()
                 .zip(points)
-                .map(|((value, direct), (p, normal, around))| {
+                .map(|(light, (p, normal, around))| {
                     let patch = display.elements[around[0] as usize].patch;
-                    self.on_facet(value, direct, *p, *normal, patch)
+                    Probed {
+                        value: self.on_facet(light.value, light.direct, *p, *normal, patch),
+                        noise: light.noise,
+                    }
                 })
                 .collect(),
         )
@@ -220,12 +224,22 @@ impl FinalGather<'_> {
         &mut self,
         frames: &[Frame],
         meter: &mut Meter,
-    ) -> Option<Vec<([f32; 3], Vec3)>> {
+    ) -> Option<Vec<DisplayLight>> {
         let rays = self.gather.hemisphere_rays.rays;
         if !self.gather.hemisphere_rays.any() || rays < FIRST_SHARE {
             let gathered =
                 (self.gather).gather_points(frames, None, None, Linking::None, None, meter)?;
-            return Some(gathered.into_iter().map(|(b, g)| (b.to_array(), g.direct)).collect());
+            return Some(
+                gathered
+                    .into_iter()
+                    .zip(frames)
+                    .map(|((b, g), frame)| DisplayLight {
+                        value: b.to_array(),
+                        direct: g.direct,
+                        noise: self.reflectance_level(frame.2) * g.reflected_error,
+                    })
+                    .collect(),
+            );
         }
         // Every point with a share of the rays, measuring how far its
         // light holds. The pool takes their noise down, so none sends
@@ -240,6 +254,9 @@ impl FinalGather<'_> {
         self.gather.settings.ray_noise = noise;
         self.gather.hemisphere_rays.set_rays(rays);
         let first: Vec<(Vec3, Gathered)> = first?;
+        // What each sample's reflected light stands on: its standard
+        // error and its rays.
+        let mut errors: Vec<f32> = first.iter().map(|(_, g)| g.reflected_error).collect();
         let scene = self.gather.scene;
         let surface = self.surfaces.get_or_init(|| scene.smooth_surfaces());
         let mut samples: Vec<Sample> = frames
@@ -277,18 +294,23 @@ impl FinalGather<'_> {
         for (&i, (_, g)) in short.iter().zip(regathered) {
             samples[i].reflected = g.reflected;
             samples[i].rays = rays as f32;
+            errors[i] = g.reflected_error;
         }
         // Each first radiosity with its first reflected light swapped
-        // for the pool's.
+        // for the pool's, whose error is its own over the root of the
+        // rays the pool adds.
         let pooled = sharing.pooled(&samples);
         Some(
-            first
-                .iter()
-                .zip(frames)
-                .zip(pooled)
-                .map(|(((b, g), frame), pooled)| {
+            (first.iter().zip(frames).zip(pooled).enumerate())
+                .map(|(i, (((b, g), frame), pooled))| {
                     let b = *b + self.rho_of(frame.2) * (pooled - g.reflected);
-                    (b.to_array(), g.direct)
+                    let effective = sharing.effective_rays(i, &samples).max(samples[i].rays);
+                    let error = errors[i] * (samples[i].rays / effective.max(1.0)).sqrt();
+                    DisplayLight {
+                        value: b.to_array(),
+                        direct: g.direct,
+                        noise: self.reflectance_level(frame.2) * error,
+                    }
                 })
                 .collect(),
         )
@@ -308,4 +330,30 @@ impl FinalGather<'_> {
             .copied()
             .unwrap_or_default()
     }
+
+    /// ... its luminance, which scales the noise of the light it receives
+    /// to that of the light it reflects.
+    pub(super) fn reflectance_level(&self, patch: u32) -> f32 {
+        luminance(self.rho_of(patch).to_array())
+    }
+}
+
+/// A display point's gathered light.
+struct DisplayLight {
+    value: [f32; 3],
+    /// The emitters' direct light in it, before its reflectance.
+    direct: Vec3,
+    /// The standard error of the luminance of `value`, from the spread of
+    /// its hemisphere rays (0 where none gathered it).
+    noise: f32,
+}
+
+/// The light gathered at a point a refinement pass probes.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Probed {
+    pub value: [f32; 3],
+    /// The standard error of its luminance, from the spread of its
+    /// hemisphere rays (0 where none gathered it: the exact form factors
+    /// and the emitters' stratified rays are taken as exact).
+    pub noise: f32,
 }

@@ -57,10 +57,13 @@ pub struct DisplayMesh {
 }
 
 /// One display refinement pass: the points it gathered to judge the
-/// Gouraud image (edge midpoints and centroids) and the cuts it made.
+/// Gouraud image (edge midpoints and centroids), those where it was off by
+/// more than the limit, and the cuts it made (fewer where the budget of a
+/// pass bound).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct RefinementPass {
     pub probes: usize,
+    pub over_limit: usize,
     pub splits: usize,
 }
 

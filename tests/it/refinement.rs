@@ -31,8 +31,8 @@ fn each_refinement_pass_is_reported_and_they_stop_when_nothing_is_left_to_split(
     assert!(passes[0].splits > 0, "{passes:?}");
     for p in passes {
         assert!(
-            p.probes >= p.splits,
-            "a split is judged by a probe: {passes:?}"
+            p.probes >= p.over_limit && p.over_limit >= p.splits,
+            "a split is judged by a probe over the limit: {passes:?}"
         );
     }
     // A pass that splits nothing ends the refinement; otherwise every
