@@ -13,10 +13,14 @@
 //! its facet's normal: scaled by the ratio of the emitters' unoccluded
 //! form factors at the two normals, the group's visibility kept. That is
 //! exact for emitters that are all visible or all hidden, and costs one
-//! closed-form factor per emitter and turned vertex; the reflected light,
-//! which a tilt of a few degrees changes far less, stays the group's.
+//! closed-form factor per emitter and turned vertex. The reflected light
+//! is turned too, where hemisphere rays gathered it (a scan's facets are
+//! small patches): by the rays' own reweighting to the facet's normal
+//! ([`ReflectedTurn`]). Where the statue's underside sees only reflected
+//! light, kept as the group's it showed a smooth statue again.
 //!
 //! [`smooth_groups`]: crate::mesh::smooth::smooth_groups
+//! [`ReflectedTurn`]: super::hemisphere_rays::ReflectedTurn
 
 use glam::{DVec3, Vec3};
 

@@ -203,8 +203,45 @@ pub(super) struct RayGathered {
     /// (gathered over many random streams, a point on a floor among small
     /// boxes spreads by 0.50-0.56 of it).
     pub(super) noise: f32,
+    /// How `reflected` changes as the normal turns: `reflected` at a
+    /// normal `n + dn` is about `reflected + (turn . dn)`, one vector per
+    /// channel ([`ReflectedTurn`]).
+    pub(super) turn: ReflectedTurn,
     /// Rays sent.
     pub(super) rays: usize,
+}
+
+/// How a point's reflected light changes as its normal turns, per
+/// channel: the mean over its cosine-distributed rays of each read times
+/// `d / (d . n)` (the ray's cosine at a turned normal over its cosine at
+/// `n`, less 1, is `d . dn / d . n`): the rays reweighted, as Ward and
+/// Heckbert's rotational gradient (1992) reads a hemisphere's samples.
+/// Zero where no rays gathered.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub(super) struct ReflectedTurn(pub(super) [Vec3; 3]);
+
+/// A ray's cosine is taken as at least this in [`ReflectedTurn`]: the
+/// rays near the horizon would weigh without bound (their share of a turn
+/// is then underrated, where a turn of a few degrees barely moves them).
+const LEAST_TURN_COSINE: f32 = 0.25;
+
+impl ReflectedTurn {
+    /// The change in the reflected light when the normal turns by `dn`.
+    pub(super) fn change(&self, dn: Vec3) -> Vec3 {
+        Vec3::new(self.0[0].dot(dn), self.0[1].dot(dn), self.0[2].dot(dn))
+    }
+
+    fn add(&mut self, read: Vec3, lean: Vec3) {
+        for (c, g) in self.0.iter_mut().enumerate() {
+            *g += read[c] * lean;
+        }
+    }
+
+    /// The mean of two, weighed by their rays.
+    fn pooled(&self, a: f32, other: &ReflectedTurn, b: f32) -> ReflectedTurn {
+        let total = (a + b).max(1.0);
+        ReflectedTurn(std::array::from_fn(|c| (self.0[c] * a + other.0[c] * b) / total))
+    }
 }
 
 impl Gather<'_> {
@@ -263,22 +300,23 @@ impl Gather<'_> {
         match ahead.filter(|hits| hits.len() == directions.len()) {
             Some(hits) => {
                 let hits = hits.iter().copied();
-                self.landings(origin, &directions, hits, distance, links)
+                self.landings((origin, at.n), &directions, hits, distance, links)
             }
             None => {
                 let hits = directions
                     .iter()
                     .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
-                self.landings(origin, &directions, hits, distance, links)
+                self.landings((origin, at.n), &directions, hits, distance, links)
             }
         }
     }
 
-    /// What the rays from `origin` along `directions` read where they
-    /// landed (`hits`: `(t, patch)` each, `None` for nothing).
+    /// What the rays from `origin` (over a surface of normal `normal`)
+    /// along `directions` read where they landed (`hits`: `(t, patch)`
+    /// each, `None` for nothing).
     fn landings(
         &self,
-        origin: Vec3,
+        (origin, normal): (Vec3, Vec3),
         directions: &[Vec3],
         hits: impl Iterator<Item = Option<(f32, u32)>>,
         mut distance: Option<&mut HarmonicDistance>,
@@ -291,15 +329,15 @@ impl Gather<'_> {
         let weight = 1.0 / directions.len().max(1) as f32;
         // Per ray, the luminance it read: their spread is the noise.
         let (mut sum, mut squares) = (0.0f64, 0.0f64);
-        let landed: Vec<(f32, Landing)> = directions
+        let (landed, towards): (Vec<(f32, Landing)>, Vec<Vec3>) = directions
             .iter()
             .zip(hits)
             .filter_map(|(&d, hit)| {
                 let (dist, patch) = hit?;
                 out.clearance = out.clearance.min(dist);
-                Some((dist, self.landing(origin, d, dist, patch)?))
+                Some(((dist, self.landing(origin, d, dist, patch)?), d))
             })
-            .collect();
+            .unzip();
         // The passes replay links, which hold the element's rest: the
         // bounce is for the final gathers alone.
         let bounce = links.is_none();
@@ -309,7 +347,7 @@ impl Gather<'_> {
                 && dist < NEAR_LANDING * self.tree.nodes[l.node as usize].radius
         };
         let bounced = self.bounced_rest(landed.iter().filter(|l| near(l)).map(|l| &l.1));
-        for landing in &landed {
+        for (landing, &d) in landed.iter().zip(&towards) {
             let (dist, Landing { node, lit, .. }) = *landing;
             let rest = match near(landing) {
                 true => bounced
@@ -320,6 +358,8 @@ impl Gather<'_> {
             };
             let read = rest + lit * self.direct_scale;
             out.reflected += weight * read;
+            let lean = d / d.dot(normal).max(LEAST_TURN_COSINE);
+            out.turn.add(weight * read, lean);
             let level = luminance(read.to_array()) as f64;
             sum += level;
             squares += level * level;
@@ -426,9 +466,8 @@ impl Gather<'_> {
     /// [`VertexGather::ray_noise`](super::VertexGather::ray_noise), more
     /// rays, as many as bring it there under [`MOST_RAYS_FACTOR`] times
     /// the first in all, traced on the CPU from `rng` as it stands after
-    /// the first rays' directions, and the two means pooled by rays; with
-    /// the relative standard error that leaves (the first's over the root
-    /// of the rays' growth). Why:
+    /// the first rays' directions, and the two pooled by rays (the noise
+    /// the first's over the root of the rays' growth). Why:
     /// a surface lit only by reflected light (an office ceiling over
     /// downlights) shows the whole of its rays' noise, where one under a
     /// light hides it under the exact direct light; 256 rays everywhere
@@ -439,10 +478,10 @@ impl Gather<'_> {
         at: &Receiver,
         first: &RayGathered,
         rng: &mut Pcg32,
-    ) -> (Vec3, f32) {
+    ) -> RayGathered {
         let target = self.settings.ray_noise;
         if first.noise <= target || first.rays == 0 {
-            return (first.reflected, first.noise);
+            return *first;
         }
         let wanted = (first.rays as f32 * (first.noise / target).powi(2)).ceil() as usize;
         let more = wanted.min(MOST_RAYS_FACTOR * first.rays) - first.rays;
@@ -450,10 +489,15 @@ impl Gather<'_> {
         let hits = directions
             .iter()
             .map(|&d| self.occluders.first_hit_beyond(origin, d, 0.0, at.patch));
-        let second = self.landings(origin, &directions, hits, None, None);
+        let second = self.landings((origin, at.n), &directions, hits, None, None);
         let (a, b) = (first.rays as f32, second.rays as f32);
-        let reflected = (first.reflected * a + second.reflected * b) / (a + b).max(1.0);
-        (reflected, first.noise * (a / (a + b).max(1.0)).sqrt())
+        RayGathered {
+            reflected: (first.reflected * a + second.reflected * b) / (a + b).max(1.0),
+            clearance: first.clearance.min(second.clearance),
+            noise: first.noise * (a / (a + b).max(1.0)).sqrt(),
+            turn: first.turn.pooled(a, &second.turn, b),
+            rays: first.rays + second.rays,
+        }
     }
 
     /// Whether the hemisphere rays are traced on the GPU: the scene
@@ -552,7 +596,7 @@ impl Gather<'_> {
                 .zip(frames.par_iter().zip(streams.par_iter()))
                 .map(|((origin, directions, hits), (&(p, n, patch), &stream))| {
                     let met = hits.iter().copied();
-                    let first = self.landings(*origin, directions, met, None, None);
+                    let first = self.landings((*origin, n), directions, met, None, None);
                     if first.noise <= self.settings.ray_noise {
                         return first.reflected;
                     }
@@ -566,7 +610,7 @@ impl Gather<'_> {
                     };
                     let mut rng = Pcg32::new(SEED, stream);
                     self.hemisphere_directions(&at, self.hemisphere_rays.rays, &mut rng);
-                    self.more_rays_where_noisy(&at, &first, &mut rng).0
+                    self.more_rays_where_noisy(&at, &first, &mut rng).reflected
                 })
                 .collect(),
         )

@@ -120,6 +120,8 @@ struct Gathered {
     /// ... and of what all its hemisphere rays read, the more rays a
     /// noisy point sent included.
     reflected_error: f32,
+    /// How the light its hemisphere rays read changes as its normal turns.
+    reflected_turn: hemisphere_rays::ReflectedTurn,
 }
 
 /// Radiosity at every vertex of `display`, gathered from the element

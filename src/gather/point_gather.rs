@@ -11,6 +11,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::exposure;
+use super::hemisphere_rays::ReflectedTurn;
 use super::links::{Links, LINKS_BUDGET};
 use super::lit_samples::POINT_RAYS;
 use super::many_lights::{self, FacedLight};
@@ -81,6 +82,7 @@ impl Default for Gathered {
             clearance: f32::INFINITY,
             ray_error: 0.0,
             reflected_error: 0.0,
+            reflected_turn: ReflectedTurn::default(),
         }
     }
 }
@@ -437,12 +439,13 @@ impl Gather<'_> {
             let by_rays = self.by_hemisphere_rays(at, rng, ahead, distance, links.as_deref_mut());
             // A point that records its links keeps its first rays: the
             // later passes replay them with their weights.
-            let (reflected, noise) = match linking {
-                true => (by_rays.reflected, by_rays.noise),
+            let rays = match linking {
+                true => by_rays,
                 false => self.more_rays_where_noisy(at, &by_rays, rng),
             };
-            gathered.reflected += reflected;
-            gathered.reflected_error = noise * luminance(reflected.to_array());
+            gathered.reflected += rays.reflected;
+            gathered.reflected_error = rays.noise * luminance(rays.reflected.to_array());
+            gathered.reflected_turn = rays.turn;
             if wanted.record {
                 gathered.clearance = gathered.clearance.min(by_rays.clearance);
             }

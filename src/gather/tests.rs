@@ -1773,3 +1773,47 @@ fn a_gap_within_the_gathered_noise_is_not_split() {
     assert!(aware > 0, "the shadows are split");
     assert!(aware < blind, "{aware} over the limit aware of the noise, {blind} blind");
 }
+
+#[test]
+fn the_reflected_light_turned_to_a_facet_is_what_the_facet_gathers() {
+    // Floor points among small boxes hung over it, their faces lit
+    // unevenly: hemisphere rays gather the reflected light. A facet tilted
+    // 10 degrees from the gathered normal (a scan's facets are tilted so)
+    // reads other light; the rays' reweighting predicts it. The reference
+    // gathers at the facet's own normal; both with 16x the rays.
+    let (s, mesh, b) = boxes_under_a_light(6, 1.0, Vec3::new(0.3, 0.5, 0.3), 0.2);
+    let tree = ShooterTree::new(&s, &mesh);
+    let settings = VertexGather {
+        source_passes: 0,
+        reuse: 0.0,
+        ray_noise: f32::INFINITY,
+        hemisphere_rays: 16 * HEMISPHERE_RAYS,
+        ..VertexGather::default()
+    };
+    let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
+    let reflected = |frames: &[Frame]| {
+        let gathered = (gather.gather)
+            .gather_points(frames, None, None, Linking::None, None, &mut Meter::unwatched())
+            .expect("unwatched");
+        gathered.into_iter().map(|(_, g)| g).collect::<Vec<_>>()
+    };
+    let tilt = 10f32.to_radians();
+    let (mut turned_off, mut kept_off, mut level) = (0.0f64, 0.0f64, 0.0f64);
+    for i in 0..24 {
+        let p = Vec3::new(0.45 + 0.23 * i as f32, 0.0, 0.7 + 0.19 * i as f32);
+        let towards = [Vec3::X, Vec3::Z, -Vec3::X][i % 3];
+        let facet = (Vec3::Y * tilt.cos() + towards * tilt.sin()).normalize();
+        let at = reflected(&[(p, Vec3::Y, 0)])[0];
+        let seen = reflected(&[(p, facet, 0)])[0].reflected.x as f64;
+        let predicted = (at.reflected + at.reflected_turn.change(facet - Vec3::Y)).x as f64;
+        turned_off += (predicted - seen).powi(2);
+        kept_off += (at.reflected.x as f64 - seen).powi(2);
+        level += seen * seen;
+    }
+    let (turned, kept) = ((turned_off / level).sqrt(), (kept_off / level).sqrt());
+    eprintln!("facets' reflected light: turned {:.3}% off, kept {:.3}% off", 100.0 * turned, 100.0 * kept);
+    // Measured: 1.66% turned, 6.60% kept (the reference's own noise in
+    // both).
+    assert!(kept > 0.02, "the tilt changes the light: {kept}");
+    assert!(turned < 0.4 * kept, "turned {turned} against kept {kept}");
+}

@@ -12,6 +12,7 @@ use rayon::prelude::*;
 use super::point_gather::Linking;
 use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
 use super::facets::FacetTurn;
+use super::hemisphere_rays::ReflectedTurn;
 use super::Gathered;
 use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::{vertex_frames, VERTEX_INSET};
@@ -26,8 +27,16 @@ use crate::scene::Scene;
 pub struct VertexCache {
     values: HashMap<(u32, [i64; 3]), [f32; 3]>,
     /// The emitters' direct light in each value gathered at a vertex
-    /// (before its reflectance), for its facets ([`FacetTurn`]).
-    direct: HashMap<(u32, [i64; 3]), Vec3>,
+    /// (before its reflectance), and how its reflected light turns with
+    /// the normal, for its facets ([`FacetTurn`], [`ReflectedTurn`]).
+    facing: HashMap<(u32, [i64; 3]), Facing>,
+}
+
+/// What a gathered value needs to be turned to a facet's normal.
+#[derive(Debug, Clone, Copy, Default)]
+struct Facing {
+    direct: Vec3,
+    turn: ReflectedTurn,
 }
 
 impl VertexCache {
@@ -121,7 +130,7 @@ impl FinalGather<'_> {
         for (&g, light) in todo.iter().zip(vals) {
             let at = key(groups.members[g].0);
             cache.values.insert(at, light.value);
-            cache.direct.insert(at, light.direct);
+            cache.facing.insert(at, light.facing);
         }
         // Each vertex its group's value, the direct light turned to its
         // own facet.
@@ -136,9 +145,9 @@ impl FinalGather<'_> {
                     let Some(&value) = cache.values.get(&at) else {
                         return [0.0; 3];
                     };
-                    match cache.direct.get(&at) {
-                        Some(&direct) => {
-                            self.on_facet(value, direct, display.vertices[v], normal, patches[v])
+                    match cache.facing.get(&at) {
+                        Some(facing) => {
+                            self.on_facet(value, facing, display.vertices[v], normal, patches[v])
                         }
                         None => value,
                     }
@@ -191,7 +200,7 @@ impl FinalGather<'_> {
                 .map(|(light, (p, normal, around))| {
                     let patch = display.elements[around[0] as usize].patch;
                     Probed {
-                        value: self.on_facet(light.value, light.direct, *p, *normal, patch),
+                        value: self.on_facet(light.value, &light.facing, *p, *normal, patch),
                         noise: light.noise,
                     }
                 })
@@ -199,11 +208,18 @@ impl FinalGather<'_> {
         )
     }
 
-    /// `value`, gathered at `p` with `normal` (its direct light `direct`),
-    /// as a corner of a facet of `patch` shows it: the direct light
-    /// turned to the facet's own normal ([`FacetTurn`]) where that is not
-    /// `normal`.
-    fn on_facet(&self, value: [f32; 3], direct: Vec3, p: Vec3, normal: Vec3, patch: u32) -> [f32; 3] {
+    /// `value`, gathered at `p` with `normal`, as a corner of a facet of
+    /// `patch` shows it: its direct light turned to the facet's own normal
+    /// ([`FacetTurn`]), and its reflected light by how it turns with the
+    /// normal ([`ReflectedTurn`]), where the facet's is not `normal`.
+    fn on_facet(
+        &self,
+        value: [f32; 3],
+        facing: &Facing,
+        p: Vec3,
+        normal: Vec3,
+        patch: u32,
+    ) -> [f32; 3] {
         let scene = self.gather.scene;
         let facet = scene.patches[patch as usize].normal;
         if facet.dot(normal) >= FLAT_COSINE {
@@ -211,7 +227,8 @@ impl FinalGather<'_> {
         }
         let turn = self.facet_turn.get_or_init(|| FacetTurn::new(scene));
         let gain = turn.gain(p, normal, facet);
-        let change = self.rho_of(patch) * direct * (gain - 1.0);
+        let received = facing.direct * (gain - 1.0) + facing.turn.change(facet - normal);
+        let change = self.rho_of(patch) * received;
         (Vec3::from(value) + change).max(Vec3::ZERO).to_array()
     }
 
@@ -235,7 +252,10 @@ impl FinalGather<'_> {
                     .zip(frames)
                     .map(|((b, g), frame)| DisplayLight {
                         value: b.to_array(),
-                        direct: g.direct,
+                        facing: Facing {
+                            direct: g.direct,
+                            turn: g.reflected_turn,
+                        },
                         noise: self.reflectance_level(frame.2) * g.reflected_error,
                     })
                     .collect(),
@@ -257,6 +277,7 @@ impl FinalGather<'_> {
         // What each sample's reflected light stands on: its standard
         // error and its rays.
         let mut errors: Vec<f32> = first.iter().map(|(_, g)| g.reflected_error).collect();
+        let mut turns: Vec<ReflectedTurn> = first.iter().map(|(_, g)| g.reflected_turn).collect();
         let scene = self.gather.scene;
         let surface = self.surfaces.get_or_init(|| scene.smooth_surfaces());
         let mut samples: Vec<Sample> = frames
@@ -295,6 +316,7 @@ impl FinalGather<'_> {
             samples[i].reflected = g.reflected;
             samples[i].rays = rays as f32;
             errors[i] = g.reflected_error;
+            turns[i] = g.reflected_turn;
         }
         // Each first radiosity with its first reflected light swapped
         // for the pool's, whose error is its own over the root of the
@@ -308,7 +330,10 @@ impl FinalGather<'_> {
                     let error = errors[i] * (samples[i].rays / effective.max(1.0)).sqrt();
                     DisplayLight {
                         value: b.to_array(),
-                        direct: g.direct,
+                        facing: Facing {
+                            direct: g.direct,
+                            turn: turns[i],
+                        },
                         noise: self.reflectance_level(frame.2) * error,
                     }
                 })
@@ -341,8 +366,9 @@ impl FinalGather<'_> {
 /// A display point's gathered light.
 struct DisplayLight {
     value: [f32; 3],
-    /// The emitters' direct light in it, before its reflectance.
-    direct: Vec3,
+    /// The emitters' direct light in it, before its reflectance, and how
+    /// its reflected light turns.
+    facing: Facing,
     /// The standard error of the luminance of `value`, from the spread of
     /// its hemisphere rays (0 where none gathered it).
     noise: f32,
