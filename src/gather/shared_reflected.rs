@@ -144,25 +144,36 @@ impl Sharing {
     }
 
     /// Every sample's reflected light pooled with its neighbours', each
-    /// weighted by its rays.
-    pub(super) fn pooled(&self, samples: &[Sample]) -> Vec<Vec3> {
+    /// weighted by its rays, with the rays it then stands on (as
+    /// [`Self::effective_rays`] counts them, in the same walk).
+    pub(super) fn pooled(&self, samples: &[Sample]) -> Vec<Pooled> {
         (0..samples.len())
             .into_par_iter()
             .map(|i| {
-                let (mut sum, mut weight) = (Vec3::ZERO, 0.0f32);
+                let (mut sum, mut weight, mut squares) = (Vec3::ZERO, 0.0f32, 0.0f32);
                 self.neighbours(i, samples, |j, w| {
                     let s = &samples[j as usize];
                     sum += w * s.rays * s.reflected;
                     weight += w * s.rays;
+                    squares += w * w * s.rays;
                 });
-                if weight > 0.0 {
-                    sum / weight
-                } else {
-                    Vec3::ZERO
+                match weight > 0.0 {
+                    true => Pooled {
+                        reflected: sum / weight,
+                        rays: weight * weight / squares,
+                    },
+                    false => Pooled::default(),
                 }
             })
             .collect()
     }
+}
+
+/// A sample's pooled reflected light, and its effective rays.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Pooled {
+    pub(super) reflected: Vec3,
+    pub(super) rays: f32,
 }
 
 #[cfg(test)]
@@ -189,10 +200,11 @@ mod tests {
         let sharing = Sharing::new(&samples);
         let pooled = sharing.pooled(&samples);
         for p in &pooled {
-            assert!((p.x - 2.0).abs() < 0.05, "{p}");
+            assert!((p.reflected.x - 2.0).abs() < 0.05, "{}", p.reflected);
         }
         // Near-equal weights: about four vertices' rays.
         assert!(sharing.effective_rays(0, &samples) > 3.9 * 64.0);
+        assert_eq!(pooled[0].rays, sharing.effective_rays(0, &samples));
     }
 
     #[test]
@@ -203,7 +215,7 @@ mod tests {
         turned.normal = Vec3::X;
         samples.push(turned);
         let pooled = Sharing::new(&samples).pooled(&samples);
-        let values: Vec<f32> = pooled.iter().map(|p| p.x).collect();
+        let values: Vec<f32> = pooled.iter().map(|p| p.reflected.x).collect();
         assert_eq!(values, vec![1.0, 3.0, 5.0, 7.0]);
     }
 
@@ -215,8 +227,8 @@ mod tests {
         ];
         let sharing = Sharing::new(&samples);
         let pooled = sharing.pooled(&samples);
-        assert_eq!(pooled[0].x, 1.0);
-        assert_eq!(pooled[1].x, 3.0);
+        assert_eq!(pooled[0].reflected.x, 1.0);
+        assert_eq!(pooled[1].reflected.x, 3.0);
         assert_eq!(sharing.effective_rays(0, &samples), 64.0);
     }
 }

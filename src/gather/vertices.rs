@@ -325,8 +325,8 @@ impl FinalGather<'_> {
         Some(
             (first.iter().zip(frames).zip(pooled).enumerate())
                 .map(|(i, (((b, g), frame), pooled))| {
-                    let b = *b + self.rho_of(frame.2) * (pooled - g.reflected);
-                    let effective = sharing.effective_rays(i, &samples).max(samples[i].rays);
+                    let b = *b + self.rho_of(frame.2) * (pooled.reflected - g.reflected);
+                    let effective = pooled.rays.max(samples[i].rays);
                     let error = errors[i] * (samples[i].rays / effective.max(1.0)).sqrt();
                     DisplayLight {
                         value: b.to_array(),
