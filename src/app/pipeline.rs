@@ -163,6 +163,7 @@ pub fn run_scene(
     let display_refinement = (gathered.display.as_ref())
         .map(|d| d.refinement.clone())
         .unwrap_or_default();
+    let display_fitted_vertices = gathered.display.as_ref().map_or(0, |d| d.fitted_vertices);
     let display_mesh = gathered.display.map(|d| d.mesh);
     let shown_mesh = display_mesh.as_ref().unwrap_or(&mesh);
     let gathered_at_pixels = gathered.pixel_image.as_ref().map(|(_, counts)| *counts);
@@ -221,6 +222,7 @@ pub fn run_scene(
         display_mesh,
         shown_elements,
         display_refinement,
+        display_fitted_vertices,
         gathered: job.final_gather.is_some()
             && !matches!(interrupted, Some("gather" | "display mesh" | "solve")),
         vertex_radiosity: gathered.shown,

@@ -27,6 +27,8 @@ pub struct Report {
     pub shown_elements: Option<usize>,
     /// The display refinement's passes, in order (empty: none ran).
     pub display_refinement: Vec<crate::mesh::display::RefinementPass>,
+    /// The display vertices fitted to the refinement's kept midpoints.
+    pub display_fitted_vertices: usize,
     /// Whether the vertex values shown were gathered (`Job::final_gather`).
     pub gathered: bool,
     /// The radiosity shown at every vertex of the display mesh (or of
@@ -168,6 +170,7 @@ impl Report {
                     "over_limit": p.over_limit,
                     "splits": p.splits,
                 })).collect::<Vec<_>>(),
+                "fitted_vertices": self.display_fitted_vertices,
             })),
             "mesh": {
                 "elements": self.mesh.elements.len(),

@@ -154,9 +154,10 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
             .collect();
         let probes: usize = r.display_refinement.iter().map(|p| p.probes).sum();
         println!(
-            "  refined   {} passes split {} elements where the gathered light left the interpolated one ({probes} points gathered to judge; --tune display_refinements)",
+            "  refined   {} passes split {} elements where the gathered light left the interpolated one ({probes} points gathered to judge; --tune display_refinements); {} vertices fitted to the light between them",
             r.display_refinement.len(),
             splits.join(" / "),
+            r.display_fitted_vertices,
         );
     }
     println!(

@@ -2,6 +2,7 @@
 //! refinement that splits its elements where the Gouraud image is off the
 //! gathered light.
 
+use super::probe_fit::fit_to_midpoints;
 use super::refine::{split_plan, Checked, DisplayRefinement};
 use crate::mesh::smooth::place_cells;
 use super::{FinalGather, Meter, VertexCache};
@@ -42,8 +43,12 @@ pub fn shade_display(
         tolerance: 0.025,
         noise_sigmas: 2.0,
         floor: 0.05,
-        // Penumbrae are resolved to an eighth of the display edge.
+        // Penumbrae are resolved to an eighth of the display edge, steep
+        // ones (a factor of two across an edge) to a sixteenth: close to
+        // the floor, rfield's shadows under the letters needed it.
         min_edge: display.edge / 8.0,
+        steep: 0.5,
+        steep_min_edge: display.edge / 16.0,
     };
     let mut cache = VertexCache::default();
     let Some(mut values) = gather.at_shown_vertices_metered(
@@ -103,5 +108,15 @@ pub fn shade_display(
         display.mesh = finer;
         display.shown = shown;
     }
+    // The vertices take the light's mean over their elements, not only
+    // its value at their points.
+    display.fitted_vertices =
+        fit_to_midpoints(
+        &display.mesh,
+        display.shown.as_deref(),
+        &mut values,
+        &checked.midpoints,
+        place_cells(scene),
+    );
     Shaded::Done(values)
 }

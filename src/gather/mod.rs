@@ -610,6 +610,7 @@ mod lit_samples;
 mod many_lights;
 pub mod pixels;
 mod point_gather;
+pub mod probe_fit;
 mod receiver;
 pub mod refine;
 mod reflected_cache;

@@ -12,6 +12,7 @@ use std::collections::{HashMap, HashSet};
 
 use glam::Vec3;
 
+use super::probe_fit::KeptMidpoints;
 use super::{FinalGather, Meter, Probed};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
 use crate::mesh::Mesh;
@@ -39,8 +40,24 @@ pub struct DisplayRefinement {
     /// (deep shadow: a large relative gap there is a small one in the
     /// image).
     pub floor: f32,
-    /// Leave elements whose longest edge is under this alone.
+    /// Leave elements whose longest edge is under this alone ...
     pub min_edge: f32,
+    /// ... unless their light is steep there: an edge whose ends (an
+    /// element whose corners) differ by over this share of the brighter
+    /// level (at least the floor) is split down to `steep_min_edge`.
+    pub steep: f32,
+    pub steep_min_edge: f32,
+}
+
+impl DisplayRefinement {
+    /// The shortest edge split where the light ranges over `lo..=hi`.
+    fn min_edge(&self, lo: f32, hi: f32, floor: f32) -> f32 {
+        if hi - lo > self.steep * hi.max(floor) {
+            self.steep_min_edge
+        } else {
+            self.min_edge
+        }
+    }
 }
 
 /// The area of an equilateral triangle of edge `min_edge`: a display
@@ -54,7 +71,9 @@ fn smallest_split_area(min_edge: f32) -> f32 {
 #[derive(Default)]
 pub struct Checked {
     centres: HashSet<[i64; 3]>,
-    midpoints: HashSet<(u32, [i64; 3])>,
+    /// The midpoints kept, with the light gathered there (which
+    /// [`super::probe_fit`] fits the vertices to).
+    pub midpoints: KeptMidpoints,
 }
 
 /// What a refinement pass splits, and the light gathered at the new
@@ -158,7 +177,9 @@ pub fn split_plan(
             let ends = [corners[i], corners[(i + 1) % corners.len()]];
             let (a, b) = (point(ends[0]), point(ends[1]));
             let mid = (e.patch, place(0.5 * (a + b)));
-            if a.distance(b) < settings.min_edge || checked.midpoints.contains(&mid) {
+            let (la, lb) = (levels[ends[0] as usize], levels[ends[1] as usize]);
+            let min_edge = settings.min_edge(la.min(lb), la.max(lb), floor);
+            if a.distance(b) < min_edge || checked.midpoints.contains_key(&mid) {
                 continue;
             }
             if let Some(&probe) = midpoints.get(&mid) {
@@ -180,8 +201,8 @@ pub fn split_plan(
         // never shrinks: the area bounds how often one is split (each
         // split a third), as the longest edge bounds a midpoint's.
         if gradient
-            && longest_edge(display, k) >= settings.min_edge
-            && e.area >= smallest_split_area(settings.min_edge)
+            && longest_edge(display, k) >= settings.min_edge(lo, hi, floor)
+            && e.area >= smallest_split_area(settings.min_edge(lo, hi, floor))
             && !checked.centres.contains(&centre)
             && centres.insert(centre)
         {
@@ -267,9 +288,13 @@ pub fn split_plan(
         }
         let e = &display.elements[*k];
         match probe {
-            Probe::Centre => checked.centres.insert(place(e.centre)),
-            Probe::Edge { .. } => checked.midpoints.insert((e.patch, place(at(*k, probe)))),
-        };
+            Probe::Centre => {
+                checked.centres.insert(place(e.centre));
+            }
+            Probe::Edge { .. } => {
+                checked.midpoints.insert((e.patch, place(at(*k, probe))), probed[i]);
+            }
+        }
     }
     let mut plan = SplitPlan {
         probes: probes.len(),

@@ -542,12 +542,8 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     let display = uniform(&s, 0.5);
     let values = gather.at_vertices(&display, &mut VertexCache::default());
     let refinement = refine::DisplayRefinement {
-        passes: 1,
-        suspect: 0.25,
         tolerance: 0.05,
-        noise_sigmas: 2.0,
-        floor: 0.05,
-        min_edge: 0.05,
+        ..one_pass()
     };
     let mut checked = refine::Checked::default();
     let mut meter = Meter::unwatched();
@@ -1736,35 +1732,17 @@ fn a_gap_within_the_gathered_noise_is_not_split() {
     // A uniform display mesh of the floor among small boxes, judged at a
     // tolerance (1%) under its hemisphere rays' noise: counting the noise
     // leaves fewer splits, and still splits the boxes' shadows.
-    let (s, mesh, b) = boxes_under_a_light(6, 1.0, Vec3::new(0.3, 0.5, 0.3), 0.2);
-    let tree = ShooterTree::new(&s, &mesh);
-    let settings = VertexGather {
-        source_passes: 0,
-        ..VertexGather::default()
-    };
-    let mut gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
-    let display = uniform(&s, 0.5);
+    let boxes = FloorAmongBoxes::new(6);
+    let (s, mut gather) = (&boxes.scene, boxes.gather());
+    let display = uniform(s, 0.5);
     let values = gather.at_vertices(&display, &mut VertexCache::default());
     let splits = |gather: &mut FinalGather, noise_sigmas: f32| {
         let refinement = refine::DisplayRefinement {
-            passes: 1,
-            suspect: 0.25,
             tolerance: 0.01,
             noise_sigmas,
-            floor: 0.05,
-            min_edge: 0.05,
+            ..one_pass()
         };
-        let plan = refine::split_plan(
-            &s,
-            &display,
-            &values,
-            None,
-            gather,
-            &refinement,
-            &mut refine::Checked::default(),
-            &mut Meter::unwatched(),
-        )
-        .expect("unwatched");
+        let (plan, _) = plan_one_pass(s, &display, &values, gather, &refinement);
         (plan.over_limit, plan.probes)
     };
     let ((blind, probes), (aware, _)) = (splits(&mut gather, 0.0), splits(&mut gather, 2.0));
@@ -1816,4 +1794,174 @@ fn the_reflected_light_turned_to_a_facet_is_what_the_facet_gathers() {
     // both).
     assert!(kept > 0.02, "the tilt changes the light: {kept}");
     assert!(turned < 0.4 * kept, "turned {turned} against kept {kept}");
+}
+
+#[test]
+fn the_lit_mesh_fitted_to_its_kept_midpoints_draws_the_light_between_its_vertices_closer() {
+    // The floor under a square light, on a coarse display mesh: the light
+    // falls off and bends between vertices. The drawn mesh is judged at
+    // three points inside each floor element, gathered there, before and
+    // after the vertices are fitted to the midpoints a refinement pass
+    // gathered and kept (a tolerance nothing passes, so that every
+    // midpoint is kept).
+    let boxes = FloorAmongBoxes::new(0);
+    let (s, mut gather) = (&boxes.scene, boxes.gather());
+    let display = uniform(s, 1.5);
+    let mut values = gather.at_vertices(&display, &mut VertexCache::default());
+    let refinement = refine::DisplayRefinement {
+        tolerance: f32::INFINITY,
+        ..one_pass()
+    };
+    let (plan, checked) = plan_one_pass(s, &display, &values, &mut gather, &refinement);
+    assert!(plan.is_empty(), "nothing is over an infinite tolerance");
+    // Three points inside each floor element, and where the drawn mesh
+    // has them (barycentric weights).
+    let weights = [[4.0, 1.0, 1.0], [1.0, 4.0, 1.0], [1.0, 1.0, 4.0]].map(|w| w.map(|x| x / 6.0));
+    let mut inside = Vec::new();
+    for e in display.elements.iter().filter(|e| e.patch == 0) {
+        for tri in e.triangles() {
+            for w in weights {
+                let p = (0..3).map(|k| display.vertices[tri[k] as usize] * w[k]).sum::<Vec3>();
+                inside.push(((p, e.normal, e.patch), tri, w));
+            }
+        }
+    }
+    let frames: Vec<_> = inside.iter().map(|&(frame, _, _)| frame).collect();
+    let seen = gather.at_points_metered(&frames, &mut Meter::unwatched()).expect("unwatched");
+    let off = |values: &[[f32; 3]]| {
+        let (mut off, mut level) = (0.0f64, 0.0f64);
+        for ((_, tri, w), seen) in inside.iter().zip(&seen) {
+            let drawn: f32 = (0..3).map(|k| luminance(values[tri[k] as usize]) * w[k]).sum();
+            let seen = luminance(seen.value);
+            off += f64::from(drawn - seen).powi(2);
+            level += f64::from(seen).powi(2);
+        }
+        (off / level).sqrt()
+    };
+    let before = off(&values);
+    let moved = probe_fit::fit_to_midpoints(&display, None, &mut values, &checked.midpoints, place_cells(s));
+    let after = off(&values);
+    eprintln!(
+        "{} points inside the floor's elements: drawn {:.3}% off before the fit, {:.3}% after ({moved} vertices moved)",
+        inside.len(),
+        100.0 * before,
+        100.0 * after
+    );
+    // Measured: 0.441% before, 0.168% after.
+    assert!(moved > 0);
+    assert!(after < 0.6 * before, "{:.3}% before, {:.3}% after", 100.0 * before, 100.0 * after);
+}
+
+#[test]
+fn a_steep_edge_under_the_split_floor_is_still_probed_and_a_gentle_one_is_not() {
+    // The floor among boxes, meshed finer than the split floor: no edge is
+    // probed, unless the steep floor lets one whose ends differ by a factor
+    // of two (a penumbra, the boxes' shadows) be probed, and only those.
+    let boxes = FloorAmongBoxes::new(6);
+    let (s, mut gather) = (&boxes.scene, boxes.gather());
+    let display = uniform(s, 0.2);
+    let values = gather.at_vertices(&display, &mut VertexCache::default());
+    let probed = |gather: &mut FinalGather, steep: f32| {
+        let refinement = refine::DisplayRefinement {
+            min_edge: 0.5,
+            steep,
+            steep_min_edge: 0.1,
+            ..one_pass()
+        };
+        let (plan, checked) = plan_one_pass(s, &display, &values, gather, &refinement);
+        (plan.probes, checked)
+    };
+    let (none, _) = probed(&mut gather, f32::INFINITY);
+    assert_eq!(none, 0, "every edge is under the split floor");
+    let (steep, checked) = probed(&mut gather, 0.5);
+    assert!(steep > 0, "the shadows' steep edges are probed");
+    // Every kept midpoint lies on an edge whose ends differ by a factor of
+    // two (those split are gone from the mesh's list of checked ones).
+    let place = place_cells(s);
+    let levels: Vec<f32> = values.iter().map(|&v| luminance(v)).collect();
+    let mean = levels.iter().sum::<f32>() / levels.len() as f32;
+    let mut gentle = 0;
+    for e in &display.elements {
+        let c = e.corners();
+        for i in 0..c.len() {
+            let (a, b) = (c[i] as usize, c[(i + 1) % c.len()] as usize);
+            let mid = place(0.5 * (display.vertices[a] + display.vertices[b]));
+            let (lo, hi) = (levels[a].min(levels[b]), levels[a].max(levels[b]));
+            if checked.midpoints.contains_key(&(e.patch, mid)) && hi - lo <= 0.5 * hi.max(0.05 * mean) {
+                gentle += 1;
+            }
+        }
+    }
+    eprintln!("{steep} steep edges probed of {} elements", display.elements.len());
+    assert_eq!(gentle, 0, "gentle edges under the floor were probed");
+}
+
+/// One display refinement pass, with the display mesh's settings but a
+/// split floor of 0.05 and no steep floor.
+fn one_pass() -> refine::DisplayRefinement {
+    refine::DisplayRefinement {
+        passes: 1,
+        suspect: 0.25,
+        tolerance: 0.025,
+        noise_sigmas: 2.0,
+        floor: 0.05,
+        min_edge: 0.05,
+        steep: f32::INFINITY,
+        steep_min_edge: 0.05,
+    }
+}
+
+/// The plan of one refinement pass over `display` (nothing checked
+/// before), and what it checked.
+fn plan_one_pass(
+    s: &Scene,
+    display: &Mesh,
+    values: &[[f32; 3]],
+    gather: &mut FinalGather,
+    refinement: &refine::DisplayRefinement,
+) -> (refine::SplitPlan, refine::Checked) {
+    let mut checked = refine::Checked::default();
+    let plan = refine::split_plan(
+        s,
+        display,
+        values,
+        None,
+        gather,
+        refinement,
+        &mut checked,
+        &mut Meter::unwatched(),
+    )
+    .expect("unwatched");
+    (plan, checked)
+}
+
+/// The floor among small boxes under a light ([`boxes_under_a_light`]:
+/// `count` boxes a unit apart, hung 0.2 over it), for a final gather with
+/// no Jacobi passes.
+struct FloorAmongBoxes {
+    scene: Scene,
+    mesh: Mesh,
+    tree: ShooterTree,
+    levels: Vec<[f32; 3]>,
+}
+
+impl FloorAmongBoxes {
+    fn new(count: usize) -> Self {
+        let (scene, mesh, levels) = boxes_under_a_light(count, 1.0, Vec3::new(0.3, 0.5, 0.3), 0.2);
+        let tree = ShooterTree::new(&scene, &mesh);
+        FloorAmongBoxes {
+            scene,
+            mesh,
+            tree,
+            levels,
+        }
+    }
+
+    fn gather(&self) -> FinalGather<'_> {
+        let settings = VertexGather {
+            source_passes: 0,
+            ..VertexGather::default()
+        };
+        FinalGather::new(&self.scene, &self.mesh, &self.tree, &self.levels, &settings)
+    }
 }

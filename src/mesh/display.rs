@@ -54,6 +54,9 @@ pub struct DisplayMesh {
     /// What each display refinement pass looked at and split, in order
     /// (empty before the gather refines it).
     pub refinement: Vec<RefinementPass>,
+    /// The vertices the fit to the refinement's kept midpoints moved
+    /// (`gather::probe_fit`; 0 before the gather).
+    pub fitted_vertices: usize,
 }
 
 /// One display refinement pass: the points it gathered to judge the
@@ -145,6 +148,7 @@ pub fn display_mesh(
             edge,
             shown: None,
             refinement: Vec::new(),
+            fitted_vertices: 0,
         })
     };
     let cap = first.as_ref().map(|b| b.max_elements as usize);
