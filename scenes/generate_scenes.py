@@ -11,6 +11,7 @@ from anywhere:
     python3 scenes/generate_scenes.py --scaling /tmp/vkrad-scaling   # letter fields, curved surfaces
     python3 scenes/generate_scenes.py --interiors /tmp/vkrad-interiors  # dining halls, 10k-200k faces
     python3 scenes/generate_scenes.py --offices /tmp/vkrad-offices  # one office, 1 to 400 luminaires
+    python3 scenes/generate_scenes.py --textured /tmp/vkrad-textured  # the Cornell box, checkered floor
 
 Every face is planar and convex, counter-clockwise seen from outside (its
 front), with no degenerate faces.
@@ -569,6 +570,52 @@ def scan_scene(out_dir, name="scan-33k", rows=116):
     return obj.faces
 
 
+def write_png(path, width, height, colour):
+    """An 8-bit RGB PNG whose pixel (x, y), y from the top, is
+    `colour(x, y)` (standard library only: zlib and struct)."""
+    import struct
+    import zlib
+
+    rows = b"".join(
+        b"\x00" + bytes(c for x in range(width) for c in colour(x, y)) for y in range(height)
+    )
+
+    def chunk(kind, data):
+        body = kind + data
+        return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header))
+        f.write(chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
+
+
+def textured_box_scene(out_dir, name="cornell-checker"):
+    """The Cornell box with a checkered floor (`map_Kd`, 8 x 8 squares),
+    for the textured lightmap: written to `out_dir` with its MTL and PNG."""
+    os.makedirs(out_dir, exist_ok=True)
+    with open(os.path.join(HERE, "cornell.obj")) as f:
+        obj = f.read()
+    floor = "o floor\nusemtl white\n"
+    assert obj.count(floor) == 1 and obj.count("mtllib cornell.mtl") == 1
+    head, tail = obj.split(floor)
+    face = "f 1 2 3 4\n"
+    assert tail.count(face) >= 1
+    tail = tail.replace(face, "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n", 1)
+    obj = head.replace("mtllib cornell.mtl", "mtllib %s.mtl" % name) + "o floor\nusemtl checker\n" + tail
+    with open(os.path.join(out_dir, name + ".obj"), "w", newline="\n") as f:
+        f.write(obj)
+    with open(os.path.join(HERE, "cornell.mtl")) as f:
+        mtl = f.read()
+    mtl += "\nnewmtl checker\nKd 0.8 0.8 0.8\nmap_Kd %s.png\n" % name
+    with open(os.path.join(out_dir, name + ".mtl"), "w", newline="\n") as f:
+        f.write(mtl)
+    light, dark = (230, 220, 200), (60, 70, 110)
+    write_png(os.path.join(out_dir, name + ".png"), 128, 128,
+              lambda x, y: light if (x // 16 + y // 16) % 2 else dark)
+    return obj.count("\nf ")
+
+
 def scaling_scenes(folder):
     """Fields of letters R from 1 to 1,500 letters (138 to 204,002
     polygons) and curved surfaces from about 2,000 to 200,000 triangles
@@ -593,6 +640,9 @@ if __name__ == "__main__":
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "--offices":
         office_scenes(sys.argv[2])
+        sys.exit(0)
+    if len(sys.argv) == 3 and sys.argv[1] == "--textured":
+        print("cornell-checker: %d faces" % textured_box_scene(sys.argv[2]))
         sys.exit(0)
     if len(sys.argv) == 3 and sys.argv[1] == "--scan":
         print("scan-33k: %d faces" % scan_scene(sys.argv[2]))

@@ -43,7 +43,7 @@ pub struct Job {
     /// The lit mesh to write (`.ply`, `.obj`, `.glb`, `.gltf`).
     pub export: Option<PathBuf>,
     /// Bake the lit mesh's light into a texture atlas too (`--lightmap`):
-    /// only with a `.glb`/`.gltf` export of an untextured scene.
+    /// only with a `.glb`/`.gltf` export.
     pub lightmap: Option<Density>,
     /// A views file (`vkrad --help` gives its form): the lit mesh is also drawn from each
     /// of its cameras, one image each.
@@ -221,12 +221,6 @@ impl Job {
             return Err(Error::Invalid(format!(
                 "--lightmap {density} needs --export FILE.glb or FILE.gltf: the lightmap is a \
                  texture, which only the glTF export carries (.ply and .obj cannot)"
-            )));
-        }
-        if scene.has_textures() {
-            return Err(Error::Invalid(format!(
-                "--lightmap {density}: scenes with textures (map_Kd) are not supported yet; \
-                 export without --lightmap"
             )));
         }
         // The atlas holds at least a texel per density^-2 of surface: a

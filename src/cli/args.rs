@@ -135,7 +135,8 @@ pub(crate) struct RenderArgs {
     /// With --export FILE.glb or .gltf: also bake the light into a texture
     /// atlas (TEXCOORD_1, an embedded 8-bit sRGB PNG shown as the unlit
     /// base colour): `auto` (about 4 texels per display vertex) or texels
-    /// per scene unit.
+    /// per scene unit. A textured scene's atlas holds its textures lit,
+    /// averaged over each texel.
     #[arg(long, value_name = "auto|TEXELS_PER_UNIT")]
     pub(crate) lightmap: Option<Density>,
     /// Also draw the lit mesh from every camera in a JSON file, one image

@@ -7,7 +7,7 @@ use std::path::Path;
 
 use super::atomic::write_atomically;
 use super::gltf;
-use super::lightmap::{self, Density, Lightmap};
+use super::lightmap::{self, Bake, Lightmap};
 use super::tonemap::tonemap;
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
@@ -93,21 +93,22 @@ pub fn export_mesh(
 
 /// [`export_mesh`], with the textures of a glTF export, or a lightmap
 /// baked into one (`.ply` and `.obj` take only the vertex values, and
-/// refuse a lightmap; so does a textured mesh: not done).
+/// refuse a lightmap). A textured scene's lightmap carries the textures in
+/// its texels (its `shade`), so it comes without a texture layer.
 pub fn export_textured_mesh(
     path: &Path,
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
     textured: Option<&gltf::TexturedLayer>,
-    lightmap: Option<Density>,
+    lightmap: Option<Bake>,
 ) -> Result<()> {
     let format = mesh_format(path)?;
     validate(path, mesh, vertex_radiosity)?;
     if lightmap.is_some() && (textured.is_some() || !matches!(format, MeshFormat::Glb | MeshFormat::Gltf)) {
         return Err(Error::Output {
             path: path.to_path_buf(),
-            what: "--lightmap needs a .glb or .gltf export of an untextured scene".to_owned(),
+            what: "--lightmap needs a .glb or .gltf export, without a texture layer".to_owned(),
         });
     }
     if let Some(t) = textured {
@@ -152,7 +153,7 @@ pub fn export_textured_mesh(
                 .file_stem()
                 .map_or_else(|| "vkrad".into(), |s| s.to_string_lossy());
             let baked = lightmap
-                .map(|d| lightmap_layer(path, mesh, vertex_radiosity, exposure, d))
+                .map(|bake| lightmap_layer(path, mesh, vertex_radiosity, exposure, bake))
                 .transpose()?;
             let (mesh, vertex_radiosity, layer) = match &baked {
                 Some((lm, radiosity, layer)) => (&lm.mesh, radiosity.as_slice(), Some(layer)),
@@ -177,9 +178,12 @@ fn lightmap_layer(
     mesh: &Mesh,
     vertex_radiosity: &[[f32; 3]],
     exposure: f32,
-    density: Density,
+    bake: Bake,
 ) -> Result<(Lightmap, Vec<[f32; 3]>, gltf::LightmapLayer)> {
-    let lm = lightmap::build(mesh, vertex_radiosity, density)?;
+    let lm = match bake.shade {
+        Some(shade) => lightmap::build_shaded(mesh, bake.density, shade)?,
+        None => lightmap::build(mesh, vertex_radiosity, bake.density)?,
+    };
     let png = lm.png(exposure).map_err(|what| Error::Output {
         path: path.to_path_buf(),
         what: format!("the lightmap: {what}"),

@@ -7,13 +7,13 @@
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use crate::error::{Error, Result};
 use crate::gpu::raster::{LitVertex, TextureInfo, Textures, NO_TEXTURE};
 use crate::mesh::Mesh;
 use crate::output::gltf::{EmbeddedImage, TexturedLayer};
-use crate::output::lightmap::Density;
+use crate::output::lightmap::{Bake, Density};
 use crate::output::mesh_export::export_textured_mesh;
 use crate::scene::Scene;
 
@@ -93,7 +93,10 @@ pub fn gpu_textures(scene: &Scene) -> Textures {
 /// format without textures can show); a glTF file also embeds the textures
 /// (as PNG) with `TEXCOORD_0`, so that a viewer shows the texture's detail
 /// between the vertices. `lightmap`: bake the light into a texture atlas
-/// too (glTF of an untextured scene only).
+/// too (glTF only); on a textured scene the atlas shows the textures lit,
+/// each texel filtered over its footprint, in place of the texture layer
+/// (so any viewer shows it as it shows an untextured one: the textures'
+/// detail is kept down to the atlas's texel).
 pub fn export_lit_mesh(
     path: &Path,
     scene: &Scene,
@@ -102,8 +105,12 @@ pub fn export_lit_mesh(
     exposure: f32,
     lightmap: Option<Density>,
 ) -> Result<()> {
+    let plain = lightmap.map(|density| Bake {
+        density,
+        shade: None,
+    });
     if !scene.has_textures() || vertex_radiosity.len() != mesh.vertices.len() {
-        return export_textured_mesh(path, mesh, vertex_radiosity, exposure, None, lightmap);
+        return export_textured_mesh(path, mesh, vertex_radiosity, exposure, None, plain);
     }
     let pi = std::f32::consts::PI;
     let radiance: Vec<[f32; 3]> = vertex_radiosity.iter().map(|b| b.map(|c| c / pi)).collect();
@@ -124,7 +131,17 @@ pub fn export_lit_mesh(
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("glb") || e.eq_ignore_ascii_case("gltf"));
     if !gltf {
-        return export_textured_mesh(path, mesh, &shown, exposure, None, lightmap);
+        return export_textured_mesh(path, mesh, &shown, exposure, None, plain);
+    }
+    if let Some(density) = lightmap {
+        let shade = |_: usize, corners: [u32; 3], w: [f32; 3], step: [[f32; 3]; 2]| {
+            texel_radiosity(scene, &lit, &shown, corners, w, step)
+        };
+        let bake = Bake {
+            density,
+            shade: Some(&shade),
+        };
+        return export_textured_mesh(path, mesh, &shown, exposure, None, Some(bake));
     }
     // Emitters keep their solved value (a viewer multiplies a texture by
     // the vertex colour; it cannot add the emitted light).
@@ -173,7 +190,48 @@ pub fn export_lit_mesh(
         element_texture,
         images,
     };
-    export_textured_mesh(path, mesh, &shown, exposure, Some(&layer), lightmap)
+    export_textured_mesh(path, mesh, &shown, exposure, Some(&layer), None)
+}
+
+/// The radiosity a lightmap texel shows on a triangle with `corners` (of
+/// `lit`, whose radiosity at each is `shown`), at barycentric weights `w`
+/// that change by `step` over a texel in x and in y: on a textured
+/// patch, L_e + (L - L_e) x Kd x texel / rho_mean interpolated as the
+/// image draws it, the texture averaged over 4 x 4 points of the texel's
+/// footprint (a texture finer than the atlas is averaged, not aliased);
+/// elsewhere `shown` interpolated.
+fn texel_radiosity(
+    scene: &Scene,
+    lit: &[LitVertex],
+    shown: &[[f32; 3]],
+    corners: [u32; 3],
+    w: [f32; 3],
+    step: [[f32; 3]; 2],
+) -> [f32; 3] {
+    let at = |k: u32| &lit[k as usize];
+    let blend = |value: &dyn Fn(u32) -> Vec3, w: [f32; 3]| -> Vec3 {
+        (0..3).map(|k| value(corners[k]) * w[k]).sum()
+    };
+    let Some(texture) = scene.textures.get(at(corners[0]).texture as usize) else {
+        return blend(&|v| Vec3::from(shown[v as usize]), w).to_array();
+    };
+    let radiance = blend(&|v| Vec3::from(at(v).radiance), w);
+    let reflected = blend(&|v| Vec3::from(at(v).reflected), w);
+    const SUB: usize = 4;
+    let mut texel = Vec3::ZERO;
+    for j in 0..SUB {
+        for i in 0..SUB {
+            let (dx, dy) = (
+                (i as f32 + 0.5) / SUB as f32 - 0.5,
+                (j as f32 + 0.5) / SUB as f32 - 0.5,
+            );
+            let sub: [f32; 3] = std::array::from_fn(|k| w[k] + dx * step[0][k] + dy * step[1][k]);
+            let uv = blend(&|v| Vec2::from(at(v).uv).extend(0.0), sub);
+            texel += texture.sample(uv.truncate());
+        }
+    }
+    texel /= (SUB * SUB) as f32;
+    ((radiance + reflected * texel) * std::f32::consts::PI).to_array()
 }
 
 /// A texture as PNG bytes (RGB, 8 bits: its sRGB texels as read).

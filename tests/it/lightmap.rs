@@ -10,7 +10,7 @@ use std::process::Command;
 
 use serde_json::Value;
 use vkrad::app::{run, Job};
-use vkrad::output::lightmap::Density;
+use vkrad::output::lightmap::{Bake, Density};
 use vkrad::output::mesh_export::export_textured_mesh;
 use vkrad::output::tonemap::linear_to_srgb8;
 
@@ -207,7 +207,10 @@ fn the_two_sides_of_every_seam_agree() {
         &radiosity,
         1.0,
         None,
-        Some(Density::TexelsPerUnit(0.5)),
+        Some(Bake {
+            density: Density::TexelsPerUnit(0.5),
+            shade: None,
+        }),
     )
     .unwrap();
     let baked = read(&path);
@@ -250,6 +253,97 @@ fn the_two_sides_of_every_seam_agree() {
     eprintln!("{seams} seam edges, worst difference {worst} levels");
     assert!(seams >= 12 * 4, "the box's creases are seams: {seams}");
     assert!(worst <= 3.0, "seam sides differ by {worst} levels of 255");
+}
+
+/// A textured scene's atlas shows its textures lit (issue 44, item 3): the
+/// room of `textures.rs`, its back wall striped black and white, baked at
+/// 16 texels a unit (a stripe is 16 texels wide). Along the middle row of
+/// the image, the atlas at each column's point of the wall is within 6
+/// levels of 255 of the image (`--shade mesh`: the same lit texture;
+/// measured 0.6) on the white stripes, and black on the black ones; away
+/// from the stripes' edges, where a texel averages both.
+#[test]
+fn a_textured_scene_s_atlas_shows_its_textures_lit() {
+    let dir = common::Scratch::new("lightmap-textured");
+    crate::textures::stripes(&dir);
+    let scene =
+        vkrad::scene::load(&crate::textures::room(&dir, "map_Kd stripes.png", 0.8)).unwrap();
+    let device = common::device();
+    let mut job = Job::new("room");
+    job.output = Some(dir.join("room.png"));
+    job.export = Some(dir.join("room.glb"));
+    job.lightmap = Some(Density::TexelsPerUnit(16.0));
+    job.shade = vkrad::gather::pixels::Shade::Mesh;
+    job.size = (96, 96);
+    let report = vkrad::app::run_scene(&job, scene, 0.0, Some(device.clone()), |_| true).unwrap();
+    common::assert_validation_clean(&device);
+    let baked = read(&dir.join("room.glb"));
+    // The atlas at a point of the wall (z = 0, facing +z): its triangle
+    // among the exported ones, and TEXCOORD_1 there.
+    let atlas_at = |x: f32, y: f32| -> Option<[f32; 3]> {
+        for t in baked.indices.chunks_exact(3) {
+            let p = [0, 1, 2].map(|k| baked.positions[t[k] as usize]);
+            if p.iter().any(|p| p[2].abs() > 1e-4) {
+                continue;
+            }
+            let area = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                - (p[2][0] - p[0][0]) * (p[1][1] - p[0][1]);
+            if area <= 0.0 {
+                continue;
+            }
+            let edge =
+                |a: [f32; 3], b: [f32; 3]| (b[0] - a[0]) * (y - a[1]) - (x - a[0]) * (b[1] - a[1]);
+            let w = [
+                edge(p[1], p[2]) / area,
+                edge(p[2], p[0]) / area,
+                edge(p[0], p[1]) / area,
+            ];
+            if w.iter().all(|&w| w >= -1e-6) {
+                let uv = [0, 1].map(|c| (0..3).map(|k| w[k] * baked.uv1[t[k] as usize][c]).sum());
+                return Some(baked.sample(uv));
+            }
+        }
+        None
+    };
+    let (w, h) = (report.image.width, report.image.height);
+    let row = h / 2;
+    let (mut white, mut black, mut worst) = (0, 0, 0.0f32);
+    for x in 0..w {
+        let u = crate::textures::u_at_column(x, w);
+        let edge = (u * 4.0 - (u * 4.0).round()).abs() / 4.0;
+        if !(0.0..1.0).contains(&u) || edge < 0.03 {
+            continue;
+        }
+        let atlas = atlas_at(4.0 * u, 2.0).expect("the wall's point is in a triangle");
+        let image = report.image.pixels[(row * w + x) as usize]
+            .map(|l| linear_to_srgb8(l * report.exposure));
+        if ((u * 4.0) as u32) % 2 == 1 {
+            for c in 0..3 {
+                let off = (atlas[c] - f32::from(image[c])).abs();
+                assert!(
+                    off <= 6.0,
+                    "column {x} (u {u}): atlas {atlas:?}, image {image:?}"
+                );
+                worst = worst.max(off);
+            }
+            assert!(atlas[0] > 16.0, "a white stripe is lit: {atlas:?}");
+            white += 1;
+        } else {
+            assert!(
+                atlas.iter().all(|&c| c <= 1.0),
+                "column {x} (u {u}): {atlas:?} where black"
+            );
+            black += 1;
+        }
+    }
+    eprintln!(
+        "{white} white columns, the atlas at most {worst} levels off the image; {black} black"
+    );
+    assert!(
+        white >= 20 && black >= 20,
+        "{white} white and {black} black columns"
+    );
+    validate(&dir.join("room.glb"));
 }
 
 /// `--lightmap` needs a glTF export: without one, or with `.ply`, the run

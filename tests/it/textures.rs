@@ -37,7 +37,7 @@ fn half_and_half(dir: &Path) {
 }
 
 /// Four vertical stripes, black, white, black, white (u in quarters).
-fn stripes(dir: &Path) {
+pub(crate) fn stripes(dir: &Path) {
     write_png(&dir.join("stripes.png"), 64, 8, |x, _| {
         if (x / 16) % 2 == 1 {
             [255; 3]
@@ -51,7 +51,7 @@ fn stripes(dir: &Path) {
 /// (x, y) / 4) whose material is `Kd kd` plus the statement `map`, a grey
 /// floor, a ceiling light, open at the front; the camera looks at the wall
 /// square on from z = 9.
-fn room(dir: &Path, map: &str, kd: f32) -> PathBuf {
+pub(crate) fn room(dir: &Path, map: &str, kd: f32) -> PathBuf {
     let obj = "\
 # vkrad camera eye 2 2 9 look_at 2 2 0 up 0 1 0 fov 30
 mtllib room.mtl
@@ -343,7 +343,7 @@ fn render(dir: &Path, scene: Scene, name: &str) -> Report {
 
 /// Texture coordinate u of the wall at pixel column `x` of the middle row
 /// (the camera of `room`: from z = 9, 30 degrees, square).
-fn u_at_column(x: u32, width: u32) -> f32 {
+pub(crate) fn u_at_column(x: u32, width: u32) -> f32 {
     let ndc = (x as f32 + 0.5) / (width as f32 * 0.5) - 1.0;
     (2.0 + ndc * 9.0 * 15f32.to_radians().tan()) / 4.0
 }

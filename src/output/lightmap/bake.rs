@@ -104,11 +104,32 @@ impl Atlas {
     /// (x, y) is the square [x, x+1] x [y, y+1], its centre at +0.5) with
     /// the linear `values` at its corners. Degenerate triangles are
     /// skipped: their neighbours cover their edges.
+    #[cfg(test)]
     pub fn triangle(&mut self, chart: u32, p: [Vec2; 3], values: [[f32; 3]; 3]) {
+        self.triangle_shaded(chart, p, |w, _| {
+            std::array::from_fn(|c| w[0] * values[0][c] + w[1] * values[1][c] + w[2] * values[2][c])
+        });
+    }
+
+    /// [`Atlas::triangle`], each texel's value given by `shade` from the
+    /// barycentric weights (summing to 1) of the point it is taken at and
+    /// their change over one texel in x and in y (the texel's footprint,
+    /// for a shade that filters what it samples).
+    pub fn triangle_shaded(
+        &mut self,
+        chart: u32,
+        p: [Vec2; 3],
+        shade: impl Fn([f32; 3], [[f32; 3]; 2]) -> [f32; 3],
+    ) {
         let area2 = (p[1] - p[0]).perp_dot(p[2] - p[0]);
         if area2.abs() < 1e-9 {
             return;
         }
+        let origin = barycentric(&p, area2, p[0]);
+        let step = [Vec2::X, Vec2::Y].map(|d| {
+            let w = barycentric(&p, area2, p[0] + d);
+            std::array::from_fn(|k| w[k] - origin[k])
+        });
         let lo = p[0].min(p[1]).min(p[2]).floor().max(Vec2::ZERO);
         let hi = p[0].max(p[1]).max(p[2]).floor();
         let hi = hi.min(Vec2::new(self.width as f32 - 1.0, self.height as f32 - 1.0));
@@ -128,9 +149,7 @@ impl Atlas {
                 let i = self.index(x, y);
                 if distance < self.distance[i] {
                     let total = at[0] + at[1] + at[2];
-                    self.values[i] = std::array::from_fn(|c| {
-                        (at[0] * values[0][c] + at[1] * values[1][c] + at[2] * values[2][c]) / total
-                    });
+                    self.values[i] = shade(at.map(|w| w / total), step);
                     self.distance[i] = distance;
                     self.chart[i] = chart;
                     self.kind[i] = Texel::Covered;

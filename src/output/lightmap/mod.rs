@@ -6,9 +6,10 @@
 //! surfaces are planar polygons, on which planar projection is exact);
 //! [`pack`]: the charts' texel rectangles, with a gutter, shelf-packed
 //! into one atlas; [`bake`]: the per-vertex radiosity rasterized into it
-//! and the gutters dilated. [`Lightmap::png`] tone-maps it as the vertex
-//! colours are (B/pi times the exposure, clamped, sRGB 8-bit): HDR
-//! lightmaps are not done.
+//! and the gutters dilated ([`build_shaded`]: each texel's light from a
+//! shade of its own, as a textured scene's atlas shows its textures lit).
+//! [`Lightmap::png`] tone-maps it as the vertex colours are (B/pi times
+//! the exposure, clamped, sRGB 8-bit): HDR lightmaps are not done.
 
 use std::str::FromStr;
 
@@ -102,9 +103,34 @@ fn content_sizes(charts: &[Chart], density: f64) -> Option<Vec<(u32, u32)>> {
         .collect()
 }
 
+/// What a texel shows, from its element's index, its triangle's corners
+/// (vertices of the input mesh), the barycentric weights of the point in
+/// that triangle it is taken at and their change over a texel in x and y
+/// ([`Atlas::triangle_shaded`]): the radiosity there.
+pub type TexelShade<'a> = &'a dyn Fn(usize, [u32; 3], [f32; 3], [[f32; 3]; 2]) -> [f32; 3];
+
+/// A lightmap to bake: how fine, and what its texels show (`None`: the
+/// vertex radiosity interpolated linearly).
+#[derive(Clone, Copy)]
+pub struct Bake<'a> {
+    pub density: Density,
+    pub shade: Option<TexelShade<'a>>,
+}
+
 /// Charts, packs and bakes the lightmap of `mesh` with `radiosity` per
-/// vertex. Errors name `--lightmap` when the atlas cannot fit.
+/// vertex, interpolated linearly. Errors name `--lightmap` when the atlas
+/// cannot fit.
 pub fn build(mesh: &Mesh, radiosity: &[[f32; 3]], density: Density) -> Result<Lightmap> {
+    let linear = |_: usize, corners: [u32; 3], w: [f32; 3], _: [[f32; 3]; 2]| -> [f32; 3] {
+        let b = corners.map(|v| radiosity[v as usize]);
+        std::array::from_fn(|c| w[0] * b[0][c] + w[1] * b[1][c] + w[2] * b[2][c])
+    };
+    build_shaded(mesh, density, &linear)
+}
+
+/// [`build`], each texel's radiosity given by `shade` (a texture's detail
+/// between the vertices, for one).
+pub fn build_shaded(mesh: &Mesh, density: Density, shade: TexelShade) -> Result<Lightmap> {
     let charts = charts::charts(mesh);
     let too_big = |d: f64| {
         Error::Invalid(format!(
@@ -179,7 +205,8 @@ pub fn build(mesh: &Mesh, radiosity: &[[f32; 3]], density: Density) -> Result<Li
         for &e in &chart.elements {
             for t in split.elements[e as usize].triangles() {
                 let p = t.map(|v| Vec2::from(uv[v as usize]) * scale);
-                atlas.triangle(k as u32, p, t.map(|v| radiosity[source[v as usize] as usize]));
+                let corners = t.map(|v| source[v as usize]);
+                atlas.triangle_shaded(k as u32, p, |w, step| shade(e as usize, corners, w, step));
             }
         }
         let (x, y) = packing.origins[k];
