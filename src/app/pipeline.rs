@@ -237,6 +237,8 @@ pub fn run_scene(
         ambient,
         output,
         export: job.export.clone(),
+        lightmap_hdr: (job.lightmap.and(job.export.as_deref()))
+            .map(crate::output::lightmap::hdr_path),
         views,
         warnings,
         peak_memory: log.peak,

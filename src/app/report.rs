@@ -53,6 +53,8 @@ pub struct Report {
     pub ambient: Option<glam::Vec3>,
     pub output: PathBuf,
     pub export: Option<PathBuf>,
+    /// The lightmap's HDR atlas, written beside the export (`--lightmap`).
+    pub lightmap_hdr: Option<PathBuf>,
     /// The images of `--views`, each with its draw time in seconds.
     pub views: Vec<(PathBuf, f64)>,
     /// Things the user should know about the result (besides scene warnings).
@@ -222,6 +224,7 @@ impl Report {
             "outputs": {
                 "image": self.output.display().to_string(),
                 "mesh": self.export.as_ref().map(|p| p.display().to_string()),
+                "lightmap_hdr": self.lightmap_hdr.as_ref().map(|p| p.display().to_string()),
                 "views": self.views.iter().map(|(p, seconds)| serde_json::json!({
                     "image": p.display().to_string(),
                     "draw_seconds": seconds,

@@ -136,7 +136,8 @@ pub(crate) struct RenderArgs {
     /// atlas (TEXCOORD_1, an embedded 8-bit sRGB PNG shown as the unlit
     /// base colour): `auto` (about 4 texels per display vertex) or texels
     /// per scene unit. A textured scene's atlas holds its textures lit,
-    /// averaged over each texel.
+    /// averaged over each texel. The same atlas, linear radiance and
+    /// unclamped, is written beside the export as NAME.lightmap.exr.
     #[arg(long, value_name = "auto|TEXELS_PER_UNIT")]
     pub(crate) lightmap: Option<Density>,
     /// Also draw the lit mesh from every camera in a JSON file, one image

@@ -253,6 +253,9 @@ pub(crate) fn print_summary(r: &Report, profile: bool) {
     if let Some(e) = &r.export {
         println!("  wrote     {}", e.display());
     }
+    if let Some(hdr) = &r.lightmap_hdr {
+        println!("  wrote     {} (the lightmap, linear)", hdr.display());
+    }
     if let Some((first, _)) = r.views.first() {
         let mut seconds: Vec<f64> = r.views.iter().map(|&(_, s)| s).collect();
         seconds.sort_by(f64::total_cmp);

@@ -7,6 +7,7 @@ use std::path::Path;
 
 use super::atomic::write_atomically;
 use super::gltf;
+use super::image_io::save_image;
 use super::lightmap::{self, Bake, Lightmap};
 use super::tonemap::tonemap;
 use crate::error::{Error, Result};
@@ -188,6 +189,9 @@ fn lightmap_layer(
         path: path.to_path_buf(),
         what: format!("the lightmap: {what}"),
     })?;
+    // The HDR atlas first: the glTF file that names it comes after.
+    let hdr = lightmap::hdr_path(path);
+    save_image(&lm.radiance(), &hdr, None)?;
     let extras = serde_json::json!({
         "width": lm.atlas.width,
         "height": lm.atlas.height,
@@ -195,7 +199,9 @@ fn lightmap_layer(
         "charts": lm.charts,
         "covered_texels": lm.atlas.covered(),
         "input_vertices": mesh.vertices.len(),
-        "texels": "radiance B/pi times exposure, clamped to [0, 1], 8-bit sRGB (not HDR)",
+        "texels": "radiance B/pi times exposure, clamped to [0, 1], 8-bit sRGB",
+        "hdr": hdr.file_name().map(|n| n.to_string_lossy().into_owned()),
+        "hdr_texels": "radiance B/pi, linear, unclamped, no exposure (OpenEXR 32-bit float)",
     });
     let radiosity = lm.per_vertex(vertex_radiosity);
     let layer = gltf::LightmapLayer {

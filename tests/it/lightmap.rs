@@ -163,10 +163,26 @@ fn the_cornell_atlas_shows_the_vertex_colours() {
     job.export = Some(dir.join("c.glb"));
     job.lightmap = Some(Density::Auto);
     job.size = (48, 48);
-    run(&job, Some(device.clone()), |_| true).unwrap();
+    let report = run(&job, Some(device.clone()), |_| true).unwrap();
     common::assert_validation_clean(&device);
     let baked = read(&dir.join("c.glb"));
     let lightmap = &baked.json["meshes"][0]["extras"]["lightmap"];
+    // Beside it, the same atlas linear and unclamped: tone-mapped as the
+    // PNG is, it is the PNG (within a level), and the light's texels keep
+    // what the clamp cuts.
+    assert_eq!(lightmap["hdr"], "c.lightmap.exr");
+    let hdr = image::open(dir.join("c.lightmap.exr")).unwrap().to_rgb32f();
+    assert_eq!(hdr.dimensions(), baked.atlas.dimensions());
+    let mut brightest = 0.0f32;
+    for (l, png) in hdr.pixels().map(|p| p.0).zip(baked.atlas.pixels()) {
+        for c in 0..3 {
+            let exposed = l[c] * report.exposure;
+            brightest = brightest.max(exposed);
+            let level = f32::from(linear_to_srgb8(exposed));
+            assert!((level - f32::from(png.0[c])).abs() <= 1.0, "{l:?} {png:?}");
+        }
+    }
+    assert!(brightest > 2.0, "the light's texels are HDR: {brightest}");
     let covered = lightmap["covered_texels"].as_f64().unwrap();
     let vertices = lightmap["input_vertices"].as_f64().unwrap();
     assert!(

@@ -9,8 +9,11 @@
 //! and the gutters dilated ([`build_shaded`]: each texel's light from a
 //! shade of its own, as a textured scene's atlas shows its textures lit).
 //! [`Lightmap::png`] tone-maps it as the vertex colours are (B/pi times
-//! the exposure, clamped, sRGB 8-bit): HDR lightmaps are not done.
+//! the exposure, clamped, sRGB 8-bit), for the glTF file; beside it
+//! ([`hdr_path`]) the same atlas is written linear and unclamped, as
+//! OpenEXR, for the engines and bakers that light with HDR lightmaps.
 
+use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
 use glam::{Vec2, Vec3};
@@ -23,6 +26,7 @@ pub mod charts;
 pub mod pack;
 
 use super::gltf::display_colour;
+use super::image_io::HdrImage;
 use super::tonemap::linear_to_srgb8;
 use bake::Atlas;
 use charts::Chart;
@@ -108,6 +112,15 @@ fn content_sizes(charts: &[Chart], density: f64) -> Option<Vec<(u32, u32)>> {
 /// that triangle it is taken at and their change over a texel in x and y
 /// ([`Atlas::triangle_shaded`]): the radiosity there.
 pub type TexelShade<'a> = &'a dyn Fn(usize, [u32; 3], [f32; 3], [[f32; 3]; 2]) -> [f32; 3];
+
+/// Where the HDR atlas of the lightmap exported to `export` is written:
+/// beside it, `NAME.lightmap.exr`.
+pub fn hdr_path(export: &Path) -> PathBuf {
+    let stem = export
+        .file_stem()
+        .map_or_else(|| "vkrad".into(), |s| s.to_string_lossy());
+    export.with_file_name(format!("{stem}.lightmap.exr"))
+}
 
 /// A lightmap to bake: how fine, and what its texels show (`None`: the
 /// vertex radiosity interpolated linearly).
@@ -238,6 +251,18 @@ impl Lightmap {
             .iter()
             .flat_map(|&b| display_colour(b, exposure).map(linear_to_srgb8))
             .collect()
+    }
+
+    /// The atlas as linear radiance B/pi per texel (unclamped, no
+    /// exposure; empty texels black), rows top to bottom.
+    pub fn radiance(&self) -> HdrImage {
+        let mut image = HdrImage::new(self.atlas.width, self.atlas.height);
+        for (out, (b, kind)) in image.pixels.iter_mut().zip(self.atlas.values.iter().zip(&self.atlas.kind)) {
+            if *kind != bake::Texel::Empty {
+                *out = b.map(|c| c / std::f32::consts::PI);
+            }
+        }
+        image
     }
 
     /// The atlas as a PNG file's bytes (RGB, 8-bit sRGB).
