@@ -4,7 +4,7 @@
 
 use super::probe_fit::fit_to_midpoints;
 use super::refine::{split_plan, Checked, DisplayRefinement};
-use crate::mesh::smooth::place_cells;
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use super::{FinalGather, Meter, VertexCache};
 use crate::mesh::build::Mesher;
 use crate::mesh::display::{DisplayMesh, RefinementPass};
@@ -110,13 +110,9 @@ pub fn shade_display(
     }
     // The vertices take the light's mean over their elements, not only
     // its value at their points.
-    display.fitted_vertices =
-        fit_to_midpoints(
-        &display.mesh,
-        display.shown.as_deref(),
-        &mut values,
-        &checked.midpoints,
-        place_cells(scene),
-    );
+    let groups = smooth_groups(scene, &display.mesh, CREASE_DEGREES);
+    let (place, shown) = (place_cells(scene), display.shown.as_deref());
+    let fit = fit_to_midpoints(&display.mesh, shown, &groups.group, &mut values, &checked.midpoints, place);
+    display.fitted_vertices = fit;
     Shaded::Done(values)
 }

@@ -47,12 +47,15 @@ fn shrunk_gap(gap: Vec3, probed: &Probed) -> Vec3 {
 /// Shifts `values` (one per vertex of `mesh`) by the gaps of the kept
 /// `midpoints` on the edges of the elements `shown` marks (`None`: all;
 /// the others' vertices were not gathered) (see the module documentation);
-/// returns how many vertices moved. Edges without a kept midpoint count
-/// as straight. (Fitting the kept centroids too, as a cubic bubble,
-/// changed rfield's lit mesh by under 0.01%.)
+/// returns how many vertices moved. Vertices of one `group` (one place,
+/// shaded as one: [`crate::mesh::smooth::SmoothGroups::group`]) move
+/// together, so that coplanar twins keep one value. Edges without a kept
+/// midpoint count as straight. (Fitting the kept centroids too, as a
+/// cubic bubble, changed rfield's lit mesh by under 0.01%.)
 pub fn fit_to_midpoints(
     mesh: &Mesh,
     shown: Option<&[bool]>,
+    group: &[u32],
     values: &mut [[f32; 3]],
     midpoints: &KeptMidpoints,
     place: impl Fn(Vec3) -> [i64; 3],
@@ -60,11 +63,12 @@ pub fn fit_to_midpoints(
     if midpoints.is_empty() {
         return 0;
     }
-    // Per vertex: the integral of its hat function times the light's
-    // excess over the drawn mesh (b), and of its hat function (the lumped
-    // mass).
-    let mut excess = vec![Vec3::ZERO; values.len()];
-    let mut mass = vec![0.0f32; values.len()];
+    // Per group: the integral of its vertices' hat functions times the
+    // light's excess over the drawn mesh (b), and of those hat functions
+    // (the lumped mass).
+    let groups = group.iter().filter(|&&g| g != u32::MAX).map(|&g| g as usize + 1).max().unwrap_or(0);
+    let mut excess = vec![Vec3::ZERO; groups];
+    let mut mass = vec![0.0f32; groups];
     let value = |v: u32| Vec3::from(values[v as usize]);
     for (k, e) in mesh.elements.iter().enumerate() {
         if shown.is_some_and(|shown| !shown[k]) {
@@ -73,7 +77,7 @@ pub fn fit_to_midpoints(
         let corners = e.corners();
         let n = corners.len();
         for &v in corners {
-            mass[v as usize] += e.area / n as f32;
+            mass[group[v as usize] as usize] += e.area / n as f32;
         }
         for i in 0..n {
             let (a, b) = (corners[i], corners[(i + 1) % n]);
@@ -92,16 +96,17 @@ pub fn fit_to_midpoints(
                 } else {
                     (1.0 / 15.0) / (n - 2) as f32
                 };
-                excess[v as usize] += gap * (share * e.area);
+                excess[group[v as usize] as usize] += gap * (share * e.area);
             }
         }
     }
     let mut moved = 0;
-    for (v, out) in values.iter_mut().enumerate() {
-        if mass[v] <= 0.0 || excess[v] == Vec3::ZERO {
+    for (out, &g) in values.iter_mut().zip(group) {
+        let g = g as usize;
+        if g >= groups || mass[g] <= 0.0 || excess[g] == Vec3::ZERO {
             continue;
         }
-        let fitted = (Vec3::from(*out) + excess[v] / mass[v]).max(Vec3::ZERO);
+        let fitted = (Vec3::from(*out) + excess[g] / mass[g]).max(Vec3::ZERO);
         *out = fitted.to_array();
         moved += 1;
     }
@@ -142,6 +147,11 @@ mod tests {
             }
         }
         mesh
+    }
+
+    /// Every vertex a group of its own.
+    fn identity(mesh: &Mesh) -> Vec<u32> {
+        (0..mesh.vertices.len() as u32).collect()
     }
 
     fn place(p: Vec3) -> [i64; 3] {
@@ -190,7 +200,7 @@ mod tests {
                 midpoints.insert((0, place(mid)), Probed { value: [light(mid); 3], noise: 0.0 });
             }
         }
-        let moved = fit_to_midpoints(&mesh, None, &mut values, &midpoints, place);
+        let moved = fit_to_midpoints(&mesh, None, &identity(&mesh), &mut values, &midpoints, place);
         let after = drawn_error(&mesh, &values, light);
         assert_eq!(moved, mesh.vertices.len());
         assert!(
@@ -213,7 +223,7 @@ mod tests {
                     midpoints.insert((0, place(mid)), Probed { value: [1.02; 3], noise });
                 }
             }
-            fit_to_midpoints(&mesh, None, &mut values, &midpoints, place);
+            fit_to_midpoints(&mesh, None, &identity(&mesh), &mut values, &midpoints, place);
             values.iter().map(|v| v[0] - 1.0).fold(0.0f32, f32::max)
         };
         let exact = fit(0.0);

@@ -7,7 +7,7 @@ use super::*;
 use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::sampling::Pcg32;
 use crate::mesh::testutil::scene;
-use crate::mesh::smooth::place_cells;
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::split::edge_key;
 use crate::mesh::uniform;
 use crate::output::tonemap::luminance;
@@ -1839,7 +1839,14 @@ fn the_lit_mesh_fitted_to_its_kept_midpoints_draws_the_light_between_its_vertice
         (off / level).sqrt()
     };
     let before = off(&values);
-    let moved = probe_fit::fit_to_midpoints(&display, None, &mut values, &checked.midpoints, place_cells(s));
+    let moved = probe_fit::fit_to_midpoints(
+        &display,
+        None,
+        &smooth_groups(s, &display, CREASE_DEGREES).group,
+        &mut values,
+        &checked.midpoints,
+        place_cells(s),
+    );
     let after = off(&values);
     eprintln!(
         "{} points inside the floor's elements: drawn {:.3}% off before the fit, {:.3}% after ({moved} vertices moved)",
