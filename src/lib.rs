@@ -12,19 +12,60 @@
 //! project's integration tests and benches (its dev-dependency on itself
 //! turns it on); nothing else should use it.
 
-/// Declares the crate's modules: `pub(crate)`, or `pub` with `internals`.
-macro_rules! internal_modules {
-    ($($name:ident),* $(,)?) => {$(
-        #[cfg(feature = "internals")]
-        pub mod $name;
-        #[cfg(not(feature = "internals"))]
-        pub(crate) mod $name;
-    )*};
-}
-
-internal_modules!(
-    app, bench, error, formfactor, gather, geom, gpu, mesh, output, render, scene, solve, trace,
-);
+// The crate's modules: `pub` with `internals`, `pub(crate)` without. Written
+// out, not made by a macro, so that `cargo fmt` finds every file.
+#[cfg(feature = "internals")]
+pub mod app;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod app;
+#[cfg(feature = "internals")]
+pub mod bench;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod bench;
+#[cfg(feature = "internals")]
+pub mod error;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod error;
+#[cfg(feature = "internals")]
+pub mod formfactor;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod formfactor;
+#[cfg(feature = "internals")]
+pub mod gather;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod gather;
+#[cfg(feature = "internals")]
+pub mod geom;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod geom;
+#[cfg(feature = "internals")]
+pub mod gpu;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod gpu;
+#[cfg(feature = "internals")]
+pub mod mesh;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod mesh;
+#[cfg(feature = "internals")]
+pub mod output;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod output;
+#[cfg(feature = "internals")]
+pub mod render;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod render;
+#[cfg(feature = "internals")]
+pub mod scene;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod scene;
+#[cfg(feature = "internals")]
+pub mod solve;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod solve;
+#[cfg(feature = "internals")]
+pub mod trace;
+#[cfg(not(feature = "internals"))]
+pub(crate) mod trace;
 
 pub mod cli;
 

@@ -688,4 +688,3 @@ fn write_stage(
     }
     Ok(exposure)
 }
-

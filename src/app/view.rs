@@ -93,7 +93,13 @@ pub fn view(options: ViewOptions) -> Result<String> {
             })
             .map_err(|e| Error::Invalid(format!("cannot start the solve thread: {e}")))?
     };
-    let mut viewer = Viewer::new(scene, home, job.size, job.device.clone(), options.screenshot);
+    let mut viewer = Viewer::new(
+        scene,
+        home,
+        job.size,
+        job.device.clone(),
+        options.screenshot,
+    );
     let ran = event_loop.run_app(&mut viewer);
     // The window's device first (its validation errors), then the window.
     let validation = viewer.close_checked();

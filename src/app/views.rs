@@ -44,15 +44,28 @@ pub fn load_views(path: &Path, main_output: &Path) -> Result<Vec<View>> {
 /// [`load_views`] on the text of a views file (`path` names it in errors).
 pub fn parse_views(path: &Path, text: &str, main_output: &Path) -> Result<Vec<View>> {
     let bad = |what: String| Error::Invalid(format!("{}: {what}", path.display()));
-    let value: Value = serde_json::from_str(text)
-        .map_err(|e| bad(format!("not JSON (line {}, column {}): {e}", e.line(), e.column())))?;
+    let value: Value = serde_json::from_str(text).map_err(|e| {
+        bad(format!(
+            "not JSON (line {}, column {}): {e}",
+            e.line(),
+            e.column()
+        ))
+    })?;
     let list = match &value {
         Value::Array(list) => list,
         Value::Object(o) => match o.get("views") {
             Some(Value::Array(list)) => list,
-            _ => return Err(bad("expected {\"views\": [ ... ]} or a list of views".into())),
+            _ => {
+                return Err(bad(
+                    "expected {\"views\": [ ... ]} or a list of views".into()
+                ))
+            }
         },
-        _ => return Err(bad("expected {\"views\": [ ... ]} or a list of views".into())),
+        _ => {
+            return Err(bad(
+                "expected {\"views\": [ ... ]} or a list of views".into()
+            ))
+        }
     };
     if list.is_empty() {
         return Err(bad("the file lists no views".into()));
@@ -62,7 +75,9 @@ pub fn parse_views(path: &Path, text: &str, main_output: &Path) -> Result<Vec<Vi
         let n = i + 1;
         let at = |what: String| bad(format!("view {n}: {what}"));
         let Value::Object(fields) = entry else {
-            return Err(at("expected an object with eye, look_at, up, fov, output".into()));
+            return Err(at(
+                "expected an object with eye, look_at, up, fov, output".into()
+            ));
         };
         for key in fields.keys() {
             if !["eye", "look_at", "up", "fov", "output"].contains(&key.as_str()) {

@@ -11,9 +11,9 @@ use std::f64::consts::PI;
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::integrate::{mean_over_polygon, polygon_distance, Tolerance};
 #[cfg(any(test, feature = "internals"))]
 use super::integrate::Integral;
+use super::integrate::{mean_over_polygon, polygon_distance, Tolerance};
 use crate::geom::newell;
 pub(crate) use crate::geom::point_form_factor::clip_to_front;
 pub use crate::geom::point_form_factor::point_to_polygon;
@@ -322,11 +322,16 @@ mod tests {
             let n = DVec3::new(u(), u(), u()).normalize();
             let area = crate::geom::polygon_area(&poly);
             let centre = (1..sides - 1)
-                .map(|k| (poly[0] + poly[k] + poly[k + 1]) / 3.0 * crate::geom::polygon_area(&[poly[0], poly[k], poly[k + 1]]))
+                .map(|k| {
+                    (poly[0] + poly[k] + poly[k + 1]) / 3.0
+                        * crate::geom::polygon_area(&[poly[0], poly[k], poly[k + 1]])
+                })
                 .sum::<DVec3>()
                 / area;
             let radius = poly.iter().map(|v| v.distance(centre)).fold(0.0, f64::max);
-            let Some(approx) = point_to_distant_polygon(p, n, centre, newell(&poly).normalize(), radius, area) else {
+            let Some(approx) =
+                point_to_distant_polygon(p, n, centre, newell(&poly).normalize(), radius, area)
+            else {
                 continue;
             };
             let exact = point_to_polygon(p, n, &poly);
@@ -334,7 +339,10 @@ mod tests {
             taken += 1;
             worst = worst.max((approx / exact - 1.0).abs());
         }
-        assert!(taken > 1_000, "only {taken} cases were distant and in front");
+        assert!(
+            taken > 1_000,
+            "only {taken} cases were distant and in front"
+        );
         assert!(worst <= 0.005, "worst relative error {worst}");
         eprintln!("{taken} distant cases, worst relative error {worst:.5}");
     }

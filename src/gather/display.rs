@@ -4,10 +4,10 @@
 
 use super::probe_fit::fit_to_midpoints;
 use super::refine::{split_plan, Checked, DisplayRefinement};
-use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use super::{FinalGather, Meter, VertexCache};
 use crate::mesh::build::Mesher;
 use crate::mesh::display::{DisplayMesh, RefinementPass};
+use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::scene::Scene;
 
 /// What the gather of a display mesh gave.
@@ -112,7 +112,14 @@ pub fn shade_display(
     // its value at their points.
     let groups = smooth_groups(scene, &display.mesh, CREASE_DEGREES);
     let (place, shown) = (place_cells(scene), display.shown.as_deref());
-    let fit = fit_to_midpoints(&display.mesh, shown, &groups.group, &mut values, &checked.midpoints, place);
+    let fit = fit_to_midpoints(
+        &display.mesh,
+        shown,
+        &groups.group,
+        &mut values,
+        &checked.midpoints,
+        place,
+    );
     display.fitted_vertices = fit;
     Shaded::Done(values)
 }

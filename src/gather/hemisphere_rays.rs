@@ -240,7 +240,9 @@ impl ReflectedTurn {
     /// The mean of two, weighed by their rays.
     fn pooled(&self, a: f32, other: &ReflectedTurn, b: f32) -> ReflectedTurn {
         let total = (a + b).max(1.0);
-        ReflectedTurn(std::array::from_fn(|c| (self.0[c] * a + other.0[c] * b) / total))
+        ReflectedTurn(std::array::from_fn(|c| {
+            (self.0[c] * a + other.0[c] * b) / total
+        }))
     }
 }
 

@@ -34,8 +34,8 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::exposure::{element_grids, exposed_points, ExposedPart};
-use super::many_lights::{brightest_first, shared_visible_share, FacedLight};
 use super::is_even;
+use super::many_lights::{brightest_first, shared_visible_share, FacedLight};
 use super::receiver::Receiver;
 use super::Gather;
 use crate::formfactor::sampling::Pcg32;
@@ -238,7 +238,11 @@ impl Gather<'_> {
             .iter()
             .map(|s| {
                 let lo = s.iter().map(level).fold(f32::INFINITY, f32::min);
-                is_even(lo, s.iter().map(level).fold(0.0, f32::max), self.settings.uniformity)
+                is_even(
+                    lo,
+                    s.iter().map(level).fold(0.0, f32::max),
+                    self.settings.uniformity,
+                )
             })
             .collect();
         if let Some(grid) = landing_grid {
@@ -317,8 +321,14 @@ impl Gather<'_> {
             return faced.iter().map(|l| own_rays(l, rng)).sum();
         }
         let (own, shared) = brightest_first(&mut faced, OWN_RAYS_LIGHTS);
-        let share =
-            shared_visible_share(&at, shared, &self.sources, &self.occluders, SHARED_RAYS, rng);
+        let share = shared_visible_share(
+            &at,
+            shared,
+            &self.sources,
+            &self.occluders,
+            SHARED_RAYS,
+            rng,
+        );
         let rest: Vec3 = shared
             .iter()
             .map(|l| self.sources[l.node as usize].radiosity * l.exact)

@@ -33,7 +33,6 @@ use crate::gpu::rays::FIRST_RAYS;
 /// fewer cost no more rays each than the shared estimate does.
 const FEWEST_SHARED: usize = 4;
 
-
 /// A light a point faces, with its exact unoccluded form factor.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct FacedLight {

@@ -462,7 +462,8 @@ impl<'a> FinalGather<'a> {
             let rho = Some(&gather.element_rho[..]);
             let gathered = gather_centres(&gather, rho, Some(false), linking, None, meter)?;
             let reach = reach.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.reach()).collect());
-            let noise = noise.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.ray_noise()).collect());
+            let noise =
+                noise.unwrap_or_else(|| gathered.iter().map(|(_, g)| g.ray_noise()).collect());
             let records = centre_records(
                 &frames,
                 &gathered,
@@ -575,7 +576,9 @@ impl<'a> FinalGather<'a> {
         frames: &[(Vec3, Vec3, u32)],
         meter: &mut Meter,
     ) -> Option<Vec<Probed>> {
-        let gathered = self.gather.gather_points(frames, None, None, Linking::None, None, meter)?;
+        let gathered = self
+            .gather
+            .gather_points(frames, None, None, Linking::None, None, meter)?;
         Some(
             gathered
                 .into_iter()

@@ -22,8 +22,8 @@ use super::{
     PIXEL_EMITTER_RAYS, RANDOM_SEED,
 };
 use crate::formfactor::sampling::Pcg32;
-use crate::output::tonemap::luminance;
 use crate::geom::{nearest_in_polygon, tangent_frame};
+use crate::output::tonemap::luminance;
 use crate::trace::{self, TracedMap};
 
 /// What is known of a point's light before it gathers: its direct light

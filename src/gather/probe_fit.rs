@@ -66,7 +66,12 @@ pub fn fit_to_midpoints(
     // Per group: the integral of its vertices' hat functions times the
     // light's excess over the drawn mesh (b), and of those hat functions
     // (the lumped mass).
-    let groups = group.iter().filter(|&&g| g != u32::MAX).map(|&g| g as usize + 1).max().unwrap_or(0);
+    let groups = group
+        .iter()
+        .filter(|&&g| g != u32::MAX)
+        .map(|&g| g as usize + 1)
+        .max()
+        .unwrap_or(0);
     let mut excess = vec![Vec3::ZERO; groups];
     let mut mass = vec![0.0f32; groups];
     let value = |v: u32| Vec3::from(values[v as usize]);
@@ -85,7 +90,10 @@ pub fn fit_to_midpoints(
             let Some(probed) = midpoints.get(&(e.patch, place(mid))) else {
                 continue;
             };
-            let gap = shrunk_gap(Vec3::from(probed.value) - 0.5 * (value(a) + value(b)), probed);
+            let gap = shrunk_gap(
+                Vec3::from(probed.value) - 0.5 * (value(a) + value(b)),
+                probed,
+            );
             // The edge's quadratic bubble 4 l_a l_b: its integral against
             // the hat of an end is 2/15 of a triangle's area, of the
             // opposite corner 1/15 (spread over the other corners of a
@@ -123,7 +131,8 @@ mod tests {
         let mut mesh = Mesh::default();
         for j in 0..=n {
             for i in 0..=n {
-                mesh.vertices.push(Vec3::new(i as f32 / n as f32, j as f32 / n as f32, 0.0));
+                mesh.vertices
+                    .push(Vec3::new(i as f32 / n as f32, j as f32 / n as f32, 0.0));
             }
         }
         let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
@@ -149,14 +158,29 @@ mod tests {
         mesh
     }
 
-    /// Every vertex a group of its own.
-    fn identity(mesh: &Mesh) -> Vec<u32> {
-        (0..mesh.vertices.len() as u32).collect()
-    }
-
     fn place(p: Vec3) -> [i64; 3] {
         let q = (p * 1e5).round();
         [q.x as i64, q.y as i64, q.z as i64]
+    }
+
+    /// Fits `values` to a kept midpoint on every edge of `mesh`, each
+    /// gathered as `probe` says; returns how many vertices moved.
+    fn fit_every_midpoint(
+        mesh: &Mesh,
+        values: &mut [[f32; 3]],
+        probe: impl Fn(Vec3) -> Probed,
+    ) -> usize {
+        let mut midpoints = KeptMidpoints::new();
+        for e in &mesh.elements {
+            let c = e.corners();
+            for i in 0..c.len() {
+                let ends = [c[i], c[(i + 1) % c.len()]].map(|v| mesh.vertices[v as usize]);
+                let mid = 0.5 * (ends[0] + ends[1]);
+                midpoints.insert((e.patch, place(mid)), probe(mid));
+            }
+        }
+        let groups: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
+        fit_to_midpoints(mesh, None, &groups, values, &midpoints, place)
     }
 
     /// The drawn mesh's mean squared error against `light` over the
@@ -192,15 +216,10 @@ mod tests {
         let mesh = grid(6);
         let mut values: Vec<[f32; 3]> = mesh.vertices.iter().map(|&p| [light(p); 3]).collect();
         let before = drawn_error(&mesh, &values, light);
-        let mut midpoints = KeptMidpoints::new();
-        for e in &mesh.elements {
-            let c = e.corners();
-            for i in 0..3 {
-                let mid = 0.5 * (mesh.vertices[c[i] as usize] + mesh.vertices[c[(i + 1) % 3] as usize]);
-                midpoints.insert((0, place(mid)), Probed { value: [light(mid); 3], noise: 0.0 });
-            }
-        }
-        let moved = fit_to_midpoints(&mesh, None, &identity(&mesh), &mut values, &midpoints, place);
+        let moved = fit_every_midpoint(&mesh, &mut values, |mid| Probed {
+            value: [light(mid); 3],
+            noise: 0.0,
+        });
         let after = drawn_error(&mesh, &values, light);
         assert_eq!(moved, mesh.vertices.len());
         assert!(
@@ -215,21 +234,22 @@ mod tests {
         let flat = vec![[1.0f32; 3]; mesh.vertices.len()];
         let fit = |noise: f32| {
             let mut values = flat.clone();
-            let mut midpoints = KeptMidpoints::new();
-            for e in &mesh.elements {
-                let c = e.corners();
-                for i in 0..3 {
-                    let mid = 0.5 * (mesh.vertices[c[i] as usize] + mesh.vertices[c[(i + 1) % 3] as usize]);
-                    midpoints.insert((0, place(mid)), Probed { value: [1.02; 3], noise });
-                }
-            }
-            fit_to_midpoints(&mesh, None, &identity(&mesh), &mut values, &midpoints, place);
+            fit_every_midpoint(&mesh, &mut values, |_| Probed {
+                value: [1.02; 3],
+                noise,
+            });
             values.iter().map(|v| v[0] - 1.0).fold(0.0f32, f32::max)
         };
         let exact = fit(0.0);
         let noisy = fit(0.05);
         // Uniform gaps of 2% raise the whole mesh by them (its mean).
-        assert!((exact - 0.02).abs() < 0.003, "exact midpoints moved the vertices by {exact}");
-        assert!(noisy < 0.2 * exact, "a 2% gap in 5% noise moved them by {noisy}");
+        assert!(
+            (exact - 0.02).abs() < 0.003,
+            "exact midpoints moved the vertices by {exact}"
+        );
+        assert!(
+            noisy < 0.2 * exact,
+            "a 2% gap in 5% noise moved them by {noisy}"
+        );
     }
 }

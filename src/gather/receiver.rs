@@ -6,9 +6,9 @@ use glam::{DVec3, Vec3};
 use super::{Source, VertexGather, MIN_REFLECTOR_RAYS};
 // Shared with glsl/gather_sources.comp (checked by src/gpu/contracts).
 use crate::formfactor::analytic::{clip_to_front, point_to_polygon};
-use crate::geom::point_form_factor::point_to_sized_polygon;
 use crate::formfactor::raytrace::Occluders;
 use crate::formfactor::sampling::{grid, Pcg32};
+use crate::geom::point_form_factor::point_to_sized_polygon;
 use crate::gpu::rays::{CORNER_INSET, FIRST_RAYS};
 use crate::solve::hierarchy::Node;
 

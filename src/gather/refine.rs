@@ -14,12 +14,12 @@ use glam::Vec3;
 
 use super::probe_fit::KeptMidpoints;
 use super::{FinalGather, Meter, Probed};
+use crate::mesh::refine::{self, corner_mean, longest_edge, mean_receiver_level, CentroidGap};
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES, FLAT_COSINE};
+use crate::mesh::split::{edge_key, Cuts, EdgeKey};
 use crate::mesh::Mesh;
 use crate::output::tonemap::luminance;
 use crate::scene::Scene;
-use crate::mesh::refine::{self, corner_mean, longest_edge, mean_receiver_level, CentroidGap};
-use crate::mesh::split::{edge_key, Cuts, EdgeKey};
 
 /// When a display element is split.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -266,9 +266,10 @@ pub fn split_plan(
                     let e = &display.elements[element];
                     (corner_mean(e, &levels), e.corners().len())
                 }
-                Probe::Edge { ends, .. } => {
-                    (0.5 * (levels[ends[0] as usize] + levels[ends[1] as usize]), 2)
-                }
+                Probe::Edge { ends, .. } => (
+                    0.5 * (levels[ends[0] as usize] + levels[ends[1] as usize]),
+                    2,
+                ),
             };
             let gap_error = probed.noise * (1.0 + 1.0 / corners as f32).sqrt();
             CentroidGap {
@@ -292,7 +293,9 @@ pub fn split_plan(
                 checked.centres.insert(place(e.centre));
             }
             Probe::Edge { .. } => {
-                checked.midpoints.insert((e.patch, place(at(*k, probe))), probed[i]);
+                checked
+                    .midpoints
+                    .insert((e.patch, place(at(*k, probe))), probed[i]);
             }
         }
     }
@@ -307,7 +310,8 @@ pub fn split_plan(
             Probe::Centre => plan.cuts.centres.insert(k),
             Probe::Edge { key, .. } => plan.cuts.edges.insert(key),
         };
-        plan.gathered.push((display.elements[k].patch, at(k, &probe), probed[i].value));
+        plan.gathered
+            .push((display.elements[k].patch, at(k, &probe), probed[i].value));
     }
     Some(plan)
 }

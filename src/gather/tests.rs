@@ -6,9 +6,9 @@ use super::hemisphere_rays::HemisphereRays;
 use super::*;
 use crate::formfactor::analytic::point_to_polygon;
 use crate::formfactor::sampling::Pcg32;
-use crate::mesh::testutil::scene;
 use crate::mesh::smooth::{place_cells, smooth_groups, CREASE_DEGREES};
 use crate::mesh::split::edge_key;
+use crate::mesh::testutil::scene;
 use crate::mesh::uniform;
 use crate::output::tonemap::luminance;
 use crate::scene::{Material, Scene};
@@ -548,8 +548,17 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     let mut checked = refine::Checked::default();
     let mut meter = Meter::unwatched();
     let next_plan = |gather: &mut FinalGather, checked: &mut refine::Checked, meter: &mut Meter| {
-        refine::split_plan(&s, &display, &values, None, gather, &refinement, checked, meter)
-            .unwrap()
+        refine::split_plan(
+            &s,
+            &display,
+            &values,
+            None,
+            gather,
+            &refinement,
+            checked,
+            meter,
+        )
+        .unwrap()
     };
     let plan = next_plan(&mut gather, &mut checked, &mut meter);
     assert!(!plan.is_empty(), "the shadow's elements are split");
@@ -581,7 +590,10 @@ fn a_coarse_display_mesh_is_split_in_the_penumbra_only() {
     for e in &display.elements {
         let c = e.corners();
         for i in 0..c.len() {
-            let (a, b) = (display.vertices[c[i] as usize], display.vertices[c[(i + 1) % c.len()] as usize]);
+            let (a, b) = (
+                display.vertices[c[i] as usize],
+                display.vertices[c[(i + 1) % c.len()] as usize],
+            );
             if !plan.cuts.edges.contains(&edge_key(&place, a, b)) || e.patch != 0 {
                 continue;
             }
@@ -1276,8 +1288,15 @@ fn reflected_light_gathered_by_hemisphere_rays_agrees_with_a_brute_force_gather(
         100.0 * adaptive,
         100.0 * fixed
     );
-    assert!(adaptive < 0.02, "per point rel. RMS {:.3}%", 100.0 * adaptive);
-    assert!(adaptive < 0.7 * fixed, "more rays where noisy: {adaptive} against {fixed}");
+    assert!(
+        adaptive < 0.02,
+        "per point rel. RMS {:.3}%",
+        100.0 * adaptive
+    );
+    assert!(
+        adaptive < 0.7 * fixed,
+        "more rays where noisy: {adaptive} against {fixed}"
+    );
 }
 
 #[test]
@@ -1378,7 +1397,10 @@ fn the_foot_of_a_face_away_from_the_light_reads_the_shadowed_floor_before_it() {
         expected += 0.05 * sum / rays as f64;
     }
     let off = got / expected - 1.0;
-    eprintln!("feet of the faces away from the light: {:+.2}% from the traced floor", 100.0 * off);
+    eprintln!(
+        "feet of the faces away from the light: {:+.2}% from the traced floor",
+        100.0 * off
+    );
     // Measured: +3.5% (+374% with the floor read from its coarse grid:
     // the light beside the box, around its corner).
     assert!(off.abs() < 0.07, "off by {:+.2}%", 100.0 * off);
@@ -1461,7 +1483,10 @@ fn floor_under_a_grid_of_lights(side: usize) -> Scene {
     let (pitch, size) = (3.0 / side as f32, 0.5 / side as f32);
     for i in 0..side {
         for j in 0..side {
-            let (x, z) = (-1.5 + pitch * (i as f32 + 0.5), -1.5 + pitch * (j as f32 + 0.5));
+            let (x, z) = (
+                -1.5 + pitch * (i as f32 + 0.5),
+                -1.5 + pitch * (j as f32 + 0.5),
+            );
             let panel = square(x - size, x + size, z - size, z + size, 2.0);
             polygons.push(facing(panel, Vec3::ZERO));
         }
@@ -1486,7 +1511,13 @@ fn floor_under_a_grid_of_lights(side: usize) -> Scene {
 fn panels_glowing(s: &Scene, mesh: &Mesh) -> Vec<[f32; 3]> {
     mesh.elements
         .iter()
-        .map(|e| [if s.patches[e.patch as usize].material == 1 { 1.0 } else { 0.0 }; 3])
+        .map(|e| {
+            [if s.patches[e.patch as usize].material == 1 {
+                1.0
+            } else {
+                0.0
+            }; 3]
+        })
         .collect()
 }
 
@@ -1514,7 +1545,10 @@ fn many_lights_sharing_one_shadow_estimate_agree_with_each_taken_exactly() {
     let floor: Vec<usize> = (0..mesh.vertices.len())
         .filter(|&v| {
             let p = mesh.vertices[v];
-            p.y == 0.0 && p.x.abs() < 1.9 && p.z.abs() < 1.9 && !(p.x > 0.15 && p.x < 1.05 && p.z.abs() < 0.45)
+            p.y == 0.0
+                && p.x.abs() < 1.9
+                && p.z.abs() < 1.9
+                && !(p.x > 0.15 && p.x < 1.05 && p.z.abs() < 0.45)
         })
         .collect();
     let (mut open, mut shaded) = (0, 0);
@@ -1537,7 +1571,10 @@ fn many_lights_sharing_one_shadow_estimate_agree_with_each_taken_exactly() {
     let mean = (sum_shared - sum_exact).abs() / sum_exact;
     let worst = worst / (sum_exact / floor.len() as f64) as f32;
     eprintln!("{open} open, {shaded} near the box; mean {mean:.4}, worst {worst:.4}");
-    assert!(open >= 100 && shaded >= 100, "{open} open, {shaded} near the box");
+    assert!(
+        open >= 100 && shaded >= 100,
+        "{open} open, {shaded} near the box"
+    );
     // A first set of 16 rays taken as the answer when unanimous read
     // 0.0024 high here: blocked lights got no ray.
     assert!(mean < 0.001, "floor's light off by {mean} on the mean");
@@ -1562,7 +1599,11 @@ fn the_direct_light_sampled_over_elements_under_many_lights_is_exact_where_nothi
         ..VertexGather::default()
     };
     let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
-    let means = gather.gather.direct_map.as_ref().expect("passes take the direct means");
+    let means = gather
+        .gather
+        .direct_map
+        .as_ref()
+        .expect("passes take the direct means");
     let panels: Vec<Vec<DVec3>> = (1..=100)
         .map(|p| s.patches[p].vertices.iter().map(|v| v.as_dvec3()).collect())
         .collect();
@@ -1585,7 +1626,10 @@ fn the_direct_light_sampled_over_elements_under_many_lights_is_exact_where_nothi
     }
     eprintln!("{open} samples, worst {worst:.5}");
     assert!(open >= 200, "only {open} open samples");
-    assert!(worst < 0.005, "a sample's direct light off by {worst} of the exact");
+    assert!(
+        worst < 0.005,
+        "a sample's direct light off by {worst} of the exact"
+    );
 }
 
 #[test]
@@ -1618,7 +1662,11 @@ fn points_take_reflected_light_only_from_centre_records_as_quiet_as_their_own_ra
     };
     let (quiet, any) = (reused(0.02), reused(f32::INFINITY));
     eprintln!("reused: {quiet} of quiet records, {any} of any");
-    assert!(any > frames.len() / 4, "only {any} of {} reused at all", frames.len());
+    assert!(
+        any > frames.len() / 4,
+        "only {any} of {} reused at all",
+        frames.len()
+    );
     assert!(quiet < any / 2, "{quiet} reused quiet records, {any} any");
 }
 
@@ -1661,7 +1709,11 @@ fn a_point_at_a_walls_foot_reads_the_light_the_floor_by_the_wall_reflects() {
     // On either face: the near one lit by the lights too, the far one by
     // reflected light alone.
     let at = [
-        (Vec3::new(2.0, 0.03, z), -Vec3::Z, s.patches.len() as u32 - 2),
+        (
+            Vec3::new(2.0, 0.03, z),
+            -Vec3::Z,
+            s.patches.len() as u32 - 2,
+        ),
         (Vec3::new(2.0, 0.03, z), Vec3::Z, s.patches.len() as u32 - 1),
     ];
     let gathered = |edge: f32| {
@@ -1675,7 +1727,13 @@ fn a_point_at_a_walls_foot_reads_the_light_the_floor_by_the_wall_reflects() {
         let b: Vec<[f32; 3]> = mesh
             .elements
             .iter()
-            .map(|e| [if lights.contains(&(e.patch as usize)) { 1.0 } else { 0.0 }; 3])
+            .map(|e| {
+                [if lights.contains(&(e.patch as usize)) {
+                    1.0
+                } else {
+                    0.0
+                }; 3]
+            })
             .collect();
         FinalGather::new(&s, &mesh, &tree, &b, &settings).at_points(&at)
     };
@@ -1705,16 +1763,19 @@ fn the_noise_a_point_reports_bounds_the_spread_of_its_light_over_random_streams(
     let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
     let copies = 48;
     let mut ratios = Vec::new();
-    for p in [Vec3::new(1.65, 0.0, 2.4), Vec3::new(3.2, 0.0, 3.7), Vec3::new(4.4, 0.0, 0.8)] {
+    for p in [
+        Vec3::new(1.65, 0.0, 2.4),
+        Vec3::new(3.2, 0.0, 3.7),
+        Vec3::new(4.4, 0.0, 0.8),
+    ] {
         let frames = vec![(p, Vec3::Y, 0); copies];
         let probed = gather
             .at_points_metered(&frames, &mut Meter::unwatched())
             .expect("unwatched");
         let levels: Vec<f64> = probed.iter().map(|x| luminance(x.value) as f64).collect();
         let mean = levels.iter().sum::<f64>() / copies as f64;
-        let spread = (levels.iter().map(|l| (l - mean).powi(2)).sum::<f64>()
-            / (copies - 1) as f64)
-            .sqrt();
+        let spread =
+            (levels.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / (copies - 1) as f64).sqrt();
         let reported = probed.iter().map(|x| x.noise as f64).sum::<f64>() / copies as f64;
         eprintln!("{p}: level {mean:.4}, spread {spread:.5}, reported {reported:.5}");
         assert!(reported > 0.0, "{p}: no noise reported");
@@ -1749,7 +1810,10 @@ fn a_gap_within_the_gathered_noise_is_not_split() {
     eprintln!("of {probes} probes, {blind} over the limit blind to the noise, {aware} aware of it");
     // Measured: 1,272 and 374 of 3,270.
     assert!(aware > 0, "the shadows are split");
-    assert!(aware < blind, "{aware} over the limit aware of the noise, {blind} blind");
+    assert!(
+        aware < blind,
+        "{aware} over the limit aware of the noise, {blind} blind"
+    );
 }
 
 #[test]
@@ -1771,7 +1835,14 @@ fn the_reflected_light_turned_to_a_facet_is_what_the_facet_gathers() {
     let gather = FinalGather::new(&s, &mesh, &tree, &b, &settings);
     let reflected = |frames: &[Frame]| {
         let gathered = (gather.gather)
-            .gather_points(frames, None, None, Linking::None, None, &mut Meter::unwatched())
+            .gather_points(
+                frames,
+                None,
+                None,
+                Linking::None,
+                None,
+                &mut Meter::unwatched(),
+            )
             .expect("unwatched");
         gathered.into_iter().map(|(_, g)| g).collect::<Vec<_>>()
     };
@@ -1789,7 +1860,11 @@ fn the_reflected_light_turned_to_a_facet_is_what_the_facet_gathers() {
         level += seen * seen;
     }
     let (turned, kept) = ((turned_off / level).sqrt(), (kept_off / level).sqrt());
-    eprintln!("facets' reflected light: turned {:.3}% off, kept {:.3}% off", 100.0 * turned, 100.0 * kept);
+    eprintln!(
+        "facets' reflected light: turned {:.3}% off, kept {:.3}% off",
+        100.0 * turned,
+        100.0 * kept
+    );
     // Measured: 1.66% turned, 6.60% kept (the reference's own noise in
     // both).
     assert!(kept > 0.02, "the tilt changes the light: {kept}");
@@ -1821,17 +1896,23 @@ fn the_lit_mesh_fitted_to_its_kept_midpoints_draws_the_light_between_its_vertice
     for e in display.elements.iter().filter(|e| e.patch == 0) {
         for tri in e.triangles() {
             for w in weights {
-                let p = (0..3).map(|k| display.vertices[tri[k] as usize] * w[k]).sum::<Vec3>();
+                let p = (0..3)
+                    .map(|k| display.vertices[tri[k] as usize] * w[k])
+                    .sum::<Vec3>();
                 inside.push(((p, e.normal, e.patch), tri, w));
             }
         }
     }
     let frames: Vec<_> = inside.iter().map(|&(frame, _, _)| frame).collect();
-    let seen = gather.at_points_metered(&frames, &mut Meter::unwatched()).expect("unwatched");
+    let seen = gather
+        .at_points_metered(&frames, &mut Meter::unwatched())
+        .expect("unwatched");
     let off = |values: &[[f32; 3]]| {
         let (mut off, mut level) = (0.0f64, 0.0f64);
         for ((_, tri, w), seen) in inside.iter().zip(&seen) {
-            let drawn: f32 = (0..3).map(|k| luminance(values[tri[k] as usize]) * w[k]).sum();
+            let drawn: f32 = (0..3)
+                .map(|k| luminance(values[tri[k] as usize]) * w[k])
+                .sum();
             let seen = luminance(seen.value);
             off += f64::from(drawn - seen).powi(2);
             level += f64::from(seen).powi(2);
@@ -1856,7 +1937,12 @@ fn the_lit_mesh_fitted_to_its_kept_midpoints_draws_the_light_between_its_vertice
     );
     // Measured: 0.441% before, 0.168% after.
     assert!(moved > 0);
-    assert!(after < 0.6 * before, "{:.3}% before, {:.3}% after", 100.0 * before, 100.0 * after);
+    assert!(
+        after < 0.6 * before,
+        "{:.3}% before, {:.3}% after",
+        100.0 * before,
+        100.0 * after
+    );
 }
 
 #[test]
@@ -1894,12 +1980,17 @@ fn a_steep_edge_under_the_split_floor_is_still_probed_and_a_gentle_one_is_not() 
             let (a, b) = (c[i] as usize, c[(i + 1) % c.len()] as usize);
             let mid = place(0.5 * (display.vertices[a] + display.vertices[b]));
             let (lo, hi) = (levels[a].min(levels[b]), levels[a].max(levels[b]));
-            if checked.midpoints.contains_key(&(e.patch, mid)) && hi - lo <= 0.5 * hi.max(0.05 * mean) {
+            if checked.midpoints.contains_key(&(e.patch, mid))
+                && hi - lo <= 0.5 * hi.max(0.05 * mean)
+            {
                 gentle += 1;
             }
         }
     }
-    eprintln!("{steep} steep edges probed of {} elements", display.elements.len());
+    eprintln!(
+        "{steep} steep edges probed of {} elements",
+        display.elements.len()
+    );
     assert_eq!(gentle, 0, "gentle edges under the floor were probed");
 }
 

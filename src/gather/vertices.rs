@@ -9,10 +9,10 @@ use std::collections::HashMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::point_gather::Linking;
-use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
 use super::facets::FacetTurn;
 use super::hemisphere_rays::ReflectedTurn;
+use super::point_gather::Linking;
+use super::shared_reflected::{Sample, Sharing, FIRST_SHARE};
 use super::Gathered;
 use super::{exposure, FinalGather, Frame, Meter};
 use crate::formfactor::receivers::{vertex_frames, VERTEX_INSET};

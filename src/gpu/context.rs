@@ -102,7 +102,11 @@ impl Instance {
         // SAFETY: plain enumeration call on a loaded entry.
         let offered = unsafe { entry.enumerate_instance_extension_properties(None) }
             .map_err(Error::vk("vkEnumerateInstanceExtensionProperties"))?;
-        let offers = |name: &CStr| offered.iter().any(|e| e.extension_name_as_c_str() == Ok(name));
+        let offers = |name: &CStr| {
+            offered
+                .iter()
+                .any(|e| e.extension_name_as_c_str() == Ok(name))
+        };
         if let Some(missing) = surface.iter().find(|n| !offers(n)) {
             return Err(Error::NoDevice(format!(
                 "the Vulkan loader offers no {missing:?}, which a window on this display needs"

@@ -23,5 +23,5 @@ mod validation;
 pub mod visibility;
 
 pub use context::{list_devices, Device, DeviceInfo, DeviceOptions};
-pub use surface::WindowHandles;
 pub use profiler::StageTimes;
+pub use surface::WindowHandles;

@@ -47,7 +47,11 @@ pub struct Presenter {
 
 impl Presenter {
     /// A presenter with a swapchain of about `window_size`.
-    pub fn new(device: &Arc<Device>, surface: Arc<Surface>, window_size: (u32, u32)) -> Result<Self> {
+    pub fn new(
+        device: &Arc<Device>,
+        surface: Arc<Surface>,
+        window_size: (u32, u32),
+    ) -> Result<Self> {
         let raw = &device.raw;
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(device.queue_family)
@@ -124,7 +128,8 @@ impl Presenter {
                 let s = raw
                     .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
                     .map_err(Error::vk("vkCreateSemaphore"))?;
-                self.device.set_name(s, &format!("swapchain image {i} rendered"));
+                self.device
+                    .set_name(s, &format!("swapchain image {i} rendered"));
                 self.rendered.push(s);
             }
         }

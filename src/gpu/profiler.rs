@@ -17,9 +17,9 @@ use std::time::{Duration, Instant};
 use ash::vk;
 use serde_json::{json, Value};
 
-
 #[cfg(any(test, feature = "internals"))]
-use super::commands::Commands;use super::context::Device;
+use super::commands::Commands;
+use super::context::Device;
 use super::instrument::{begin_label, end_label, Counters};
 use crate::error::{Error, Result};
 use crate::trace::{cat, Trace, GPU_TID};

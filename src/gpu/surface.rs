@@ -110,7 +110,10 @@ impl Surface {
     }
 
     /// The image formats and colour spaces it can show.
-    pub(crate) fn formats(&self, physical: vk::PhysicalDevice) -> Result<Vec<vk::SurfaceFormatKHR>> {
+    pub(crate) fn formats(
+        &self,
+        physical: vk::PhysicalDevice,
+    ) -> Result<Vec<vk::SurfaceFormatKHR>> {
         // SAFETY: as in `supports`.
         unsafe {
             self.loader

@@ -12,10 +12,10 @@ use crate::scene::Scene;
 mod coplanar;
 mod cross_patch;
 mod grid;
-pub(crate) use coplanar::F32_SLACK;
-pub use coplanar::{coplanar_t_junctions, TJunction};
 #[cfg(any(test, feature = "internals"))]
 pub use coplanar::distinct_t_junctions;
+pub(crate) use coplanar::F32_SLACK;
+pub use coplanar::{coplanar_t_junctions, TJunction};
 pub(crate) use cross_patch::{shared_edges, SharedEdge};
 use grid::Grid;
 
@@ -502,7 +502,11 @@ mod tests {
         let mut points = corners.to_vec();
         // 4: a, on the near side; 5: b, the diagonal's end on the far
         // side; 6: w, just short of b.
-        points.extend([p(2.936_842, 1.35), p(3.260_216_7, 1.38), p(3.258_713_2, 1.38)]);
+        points.extend([
+            p(2.936_842, 1.35),
+            p(3.260_216_7, 1.38),
+            p(3.258_713_2, 1.38),
+        ]);
         let tri = |c: [u32; 3], points: &[Vec3]| {
             let mut e = quad([c[0], c[1], c[2], 0], points, 0);
             e.corner_count = 3;

@@ -130,7 +130,11 @@ impl Mesh {
                 }
                 2 => {
                     // Edges i and i + 1 are cut; they meet at corner i + 1.
-                    let i = if m((cut[1] + 1) % 3).is_some() { cut[1] } else { cut[0] };
+                    let i = if m((cut[1] + 1) % 3).is_some() {
+                        cut[1]
+                    } else {
+                        cut[0]
+                    };
                     let (a, b, d) = (c[i], c[(i + 1) % 3], c[(i + 2) % 3]);
                     let (mi, mj) = (m(i).unwrap(), m(i + 1).unwrap());
                     self.push_piece(e, &[mi, b, mj]);
@@ -255,8 +259,14 @@ mod tests {
         let area = |m: &Mesh| m.elements.iter().map(|e| e.area).sum::<f32>();
         assert!((area(after) - area(before)).abs() < 1e-5);
         for e in &after.elements {
-            let c: Vec<Vec3> = e.corners().iter().map(|&v| after.vertices[v as usize]).collect();
-            let twice: Vec3 = (1..c.len() - 1).map(|k| (c[k] - c[0]).cross(c[k + 1] - c[0])).sum();
+            let c: Vec<Vec3> = e
+                .corners()
+                .iter()
+                .map(|&v| after.vertices[v as usize])
+                .collect();
+            let twice: Vec3 = (1..c.len() - 1)
+                .map(|k| (c[k] - c[0]).cross(c[k + 1] - c[0]))
+                .sum();
             assert!(twice.dot(e.normal) > 0.0, "{c:?} is clockwise or empty");
         }
         after.sanity_check(scene).expect("sane");
@@ -274,7 +284,11 @@ mod tests {
 
     #[test]
     fn a_triangle_cut_at_one_two_or_three_edges_becomes_two_three_or_four() {
-        let (a, b, c) = (Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0));
+        let (a, b, c) = (
+            Vec3::ZERO,
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        );
         let s = scene(&[&[a, b, c]]);
         let mesh = uniform(&s, 10.0);
         assert_eq!(mesh.elements.len(), 1);
@@ -316,7 +330,10 @@ mod tests {
             .filter(|&k| parents.iter().filter(|&&p| p == k).count() > 1)
             .collect();
         assert_eq!(changed.len(), 2);
-        let patches: HashSet<u32> = changed.iter().map(|&k| mesh.elements[k as usize].patch).collect();
+        let patches: HashSet<u32> = changed
+            .iter()
+            .map(|&k| mesh.elements[k as usize].patch)
+            .collect();
         assert_eq!(patches.len(), 2, "the cut is made on both patches");
     }
 

@@ -167,7 +167,6 @@ pub(crate) fn polygon_area_centroid(points: &[Vec3]) -> (f32, Vec3) {
     (area as f32, centre)
 }
 
-
 /// A quad split into 2^k x 2^k sub-quads, lattice point (i, j) at
 /// bilinear parameters (i / n, j / n).
 fn mesh_quad(mesh: &mut Mesh, patch_index: u32, patch: &Patch, max_edge: f32) {

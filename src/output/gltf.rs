@@ -228,9 +228,8 @@ impl Embedded {
             "wrapS": wrap,
             "wrapT": wrap,
         }));
-        self.textures.push(
-            json!({ "sampler": self.samplers.len() - 1, "source": self.images.len() - 1 }),
-        );
+        self.textures
+            .push(json!({ "sampler": self.samplers.len() - 1, "source": self.images.len() - 1 }));
         json!({
             "name": name,
             "pbrMetallicRoughness": {
@@ -330,7 +329,8 @@ fn build(
                 png: l.png.clone(),
                 clamp: true,
             };
-            materials[0] = embedded.material(&mut b, &atlas, "radiosity (baked lightmap)".to_owned());
+            materials[0] =
+                embedded.material(&mut b, &atlas, "radiosity (baked lightmap)".to_owned());
             0
         } else if list == 0 {
             0
@@ -384,7 +384,8 @@ fn build(
         let extras = &mut json["meshes"][0]["extras"];
         extras["_COLOR_0"] = extras["COLOR_0"].take();
         extras.as_object_mut().map(|e| e.remove("COLOR_0"));
-        extras["TEXCOORD_1"] = json!("lightmap coordinates (TEXCOORD_0 repeats them for baseColorTexture)");
+        extras["TEXCOORD_1"] =
+            json!("lightmap coordinates (TEXCOORD_0 repeats them for baseColorTexture)");
         extras["lightmap"] = l.extras.clone();
     }
     Gltf { json, bin: b.bin }

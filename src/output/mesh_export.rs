@@ -106,7 +106,9 @@ pub fn export_textured_mesh(
 ) -> Result<()> {
     let format = mesh_format(path)?;
     validate(path, mesh, vertex_radiosity)?;
-    if lightmap.is_some() && (textured.is_some() || !matches!(format, MeshFormat::Glb | MeshFormat::Gltf)) {
+    if lightmap.is_some()
+        && (textured.is_some() || !matches!(format, MeshFormat::Glb | MeshFormat::Gltf))
+    {
         return Err(Error::Output {
             path: path.to_path_buf(),
             what: "--lightmap needs a .glb or .gltf export, without a texture layer".to_owned(),

@@ -11,9 +11,9 @@ pub mod mesh_export;
 pub mod tonemap;
 
 pub use atomic::write_atomically;
-pub use image_io::HdrImage;
 #[cfg(any(test, feature = "internals"))]
 pub use compare::{compare_rgb8, diff_image, save_png_rgb8, ImageDiff};
+pub use image_io::HdrImage;
 #[cfg(any(test, feature = "internals"))]
 pub use image_io::{load_png_rgb8, save_image};
 pub use mesh_export::export_mesh;

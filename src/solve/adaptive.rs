@@ -87,7 +87,9 @@ pub fn refine_and_resolve(
         // The luminance of every vertex, the level `mesh::refine` compares.
         let levels = vertex_levels(&solution.vertex_radiosity(mesh));
         let gaps = interpolation_gaps(scene, mesh, &solution.radiosity, &levels, settings.rays);
-        history.errors.push(estimated_error(scene, mesh, &levels, &gaps));
+        history
+            .errors
+            .push(estimated_error(scene, mesh, &levels, &gaps));
         let points = split_points(scene, mesh, &levels, &gaps, settings);
         add_wall(
             &mut history.wall,
@@ -202,12 +204,7 @@ pub fn split_points(
 /// The image error the gaps predict: `sqrt(sum gap^2 A / sum A)` over the
 /// non-emitting elements, relative to their mean radiosity (0 when they
 /// receive nothing).
-pub fn estimated_error(
-    scene: &Scene,
-    mesh: &Mesh,
-    levels: &[f32],
-    gaps: &[f32],
-) -> f64 {
+pub fn estimated_error(scene: &Scene, mesh: &Mesh, levels: &[f32], gaps: &[f32]) -> f64 {
     let Some(mean) = mean_receiver_level(scene, mesh, levels, |_| true) else {
         return 0.0;
     };

@@ -14,9 +14,9 @@ pub mod solution;
 
 pub use hierarchy::{HierarchyRule, ShooterTree};
 pub use patch_matrix::{patch_form_factors, patch_form_factors_cpu, PatchFormFactors};
-pub use progressive::{solve, Progress, Shooting, SolveSettings};
 #[cfg(any(test, feature = "internals"))]
 pub use progressive::{default_batch, solve_batched};
+pub use progressive::{solve, Progress, Shooting, SolveSettings};
 pub use shoot::FormFactorMethod;
 #[cfg(any(test, feature = "internals"))]
 pub use shoot::{CpuFormFactors, GpuMesh, Shots};

@@ -438,7 +438,11 @@ pub fn solve_batched(
             stop = true;
         }
     }
-    if done(unshot_power, share, reflected_power / shot_total.max(f64::MIN_POSITIVE)) {
+    if done(
+        unshot_power,
+        share,
+        reflected_power / shot_total.max(f64::MIN_POSITIVE),
+    ) {
         converged = true;
     }
     let shot = shots_engine.finish()?;

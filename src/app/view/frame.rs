@@ -38,11 +38,16 @@ impl Shown {
     }
 
     /// One sample a pixel, from `camera`, `size` pixels.
-    pub fn quick(&self, scene: &Scene, camera: &Camera, (w, h): (u32, u32)) -> Result<Vec<[u8; 4]>> {
+    pub fn quick(
+        &self,
+        scene: &Scene,
+        camera: &Camera,
+        (w, h): (u32, u32),
+    ) -> Result<Vec<[u8; 4]>> {
         let view_proj = camera_view_proj(camera, w as f32 / h as f32, scene.extent())?;
-        let pixels =
-            self.quick
-                .render(&[], &[view_proj], w, h, &mut StageTimes::default())?;
+        let pixels = self
+            .quick
+            .render(&[], &[view_proj], w, h, &mut StageTimes::default())?;
         Ok(tone_map(&pixels, |p| [p[0], p[1], p[2]], self.lit.exposure))
     }
 
@@ -54,15 +59,26 @@ impl Shown {
         camera: &Camera,
         size: (u32, u32),
     ) -> Result<Vec<[u8; 4]>> {
-        let image = LitMeshImages::new(device, scene, &self.lit.mesh, &self.lit.radiance, size, false)?
-            .draw(camera, &mut StageTimes::default())?;
+        let image = LitMeshImages::new(
+            device,
+            scene,
+            &self.lit.mesh,
+            &self.lit.radiance,
+            size,
+            false,
+        )?
+        .draw(camera, &mut StageTimes::default())?;
         Ok(tone_map(&image.pixels, |p| *p, self.lit.exposure))
     }
 }
 
 /// Linear radiance times `exposure` to opaque 8-bit sRGB, as the PNG
 /// writer does it (`output::tonemap`).
-fn tone_map<P: Sync>(pixels: &[P], rgb: impl Fn(&P) -> [f32; 3] + Sync, exposure: f32) -> Vec<[u8; 4]> {
+fn tone_map<P: Sync>(
+    pixels: &[P],
+    rgb: impl Fn(&P) -> [f32; 3] + Sync,
+    exposure: f32,
+) -> Vec<[u8; 4]> {
     pixels
         .par_iter()
         .map(|p| {

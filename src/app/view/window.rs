@@ -245,7 +245,10 @@ impl Viewer {
         crate::output::write_atomically(path, |out| {
             crate::output::image_io::encode_png_rgb8(path, out, w, h, &rgb)
         })?;
-        let what = self.shown.as_ref().map_or(String::new(), |s| describe(&s.lit));
+        let what = self
+            .shown
+            .as_ref()
+            .map_or(String::new(), |s| describe(&s.lit));
         Ok(format!("screenshot {} ({w}x{h}): {what}", path.display()))
     }
 
@@ -262,7 +265,10 @@ impl Viewer {
                 held(KeyCode::KeyD, KeyCode::ArrowRight),
                 held(KeyCode::KeyA, KeyCode::ArrowLeft),
             ),
-            up: axis(self.keys.contains(&KeyCode::KeyE), self.keys.contains(&KeyCode::KeyQ)),
+            up: axis(
+                self.keys.contains(&KeyCode::KeyE),
+                self.keys.contains(&KeyCode::KeyQ),
+            ),
         }
     }
 
@@ -292,7 +298,11 @@ impl Viewer {
         }
     }
 
-    fn window_event_inner(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
+    fn window_event_inner(
+        &mut self,
+        event_loop: &ActiveEventLoop,
+        event: WindowEvent,
+    ) -> Result<()> {
         match event {
             WindowEvent::CloseRequested => self.finish(event_loop, Ok(String::new())),
             WindowEvent::Resized(size) => {

@@ -213,7 +213,10 @@ fn full_run(
             let status = match update {
                 Update::Shot(p) => format!("final run: solve, {} shots", p.shots),
                 Update::Stage { stage, done, total } if *total > 0 => {
-                    format!("final run: {stage} {:.0}%", 100.0 * *done as f64 / *total as f64)
+                    format!(
+                        "final run: {stage} {:.0}%",
+                        100.0 * *done as f64 / *total as f64
+                    )
                 }
                 Update::Stage { stage, .. } => format!("final run: {stage}"),
             };

@@ -62,7 +62,10 @@ impl LightShares {
                 let patch = &scene.patches[e];
                 let polygon: Vec<DVec3> = patch.vertices.iter().map(|v| v.as_dvec3()).collect();
                 let centre = patch.centroid().as_dvec3();
-                let radius = polygon.iter().map(|v| v.distance(centre)).fold(0.0, f64::max);
+                let radius = polygon
+                    .iter()
+                    .map(|v| v.distance(centre))
+                    .fold(0.0, f64::max);
                 let emission = scene
                     .materials
                     .get(patch.material)
@@ -173,7 +176,8 @@ impl TargetShares<'_> {
     /// pieces joined).
     pub fn keep(&self, k: usize, a: DVec2, b: DVec2, out: &mut Vec<(DVec2, DVec2)>) {
         let length = a.distance(b) * self.frame.size;
-        let pieces = ((length / (PIECE_EDGES * self.shares.edge)).ceil() as usize).clamp(1, MAX_PIECES);
+        let pieces =
+            ((length / (PIECE_EDGES * self.shares.edge)).ceil() as usize).clamp(1, MAX_PIECES);
         let at = |t: f64| a + (b - a) * t;
         let mut start: Option<usize> = None;
         for i in 0..=pieces {

@@ -642,6 +642,10 @@ fn a_display_mesh_takes_a_lights_shadow_lines_only_where_it_gives_a_good_part_of
     };
     assert!(floor(&dim, &full) > floor(&one, &full));
     assert_eq!(floor(&dim, &display), floor(&one, &display));
-    assert_eq!(floor(&one, &display), floor(&one, &full), "one light: every line");
+    assert_eq!(
+        floor(&one, &display),
+        floor(&one, &full),
+        "one light: every line"
+    );
     assert!(floor(&bright, &display) > floor(&one, &display));
 }

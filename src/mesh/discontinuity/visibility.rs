@@ -6,9 +6,9 @@ use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use glam::{Mat4, Vec3};
 #[cfg(any(test, feature = "internals"))]
 use glam::DVec3;
+use glam::{Mat4, Vec3};
 use rayon::prelude::*;
 
 use super::shaft::{PatchBvh, Shaft};

@@ -142,7 +142,10 @@ impl Atlas {
                     (w, 0.0)
                 } else if square_touches(&p, corner) {
                     let q = nearest_on_edges(&p, centre);
-                    (barycentric(&p, area2, q).map(|w| w.clamp(0.0, 1.0)), q.distance(centre))
+                    (
+                        barycentric(&p, area2, q).map(|w| w.clamp(0.0, 1.0)),
+                        q.distance(centre),
+                    )
                 } else {
                     continue;
                 };
@@ -284,7 +287,10 @@ mod tests {
             }
         }
         for p in TRIANGLE {
-            assert_eq!(atlas.kind[atlas.index(p.x as u32, p.y as u32)], Texel::Covered);
+            assert_eq!(
+                atlas.kind[atlas.index(p.x as u32, p.y as u32)],
+                Texel::Covered
+            );
         }
         // Inside, a texel holds the plane's value at its centre.
         let i = atlas.index(8, 6);

@@ -93,7 +93,10 @@ pub fn charts(mesh: &Mesh) -> Vec<Chart> {
         for k in 0..c.len() {
             let (a, b) = (ids[c[k] as usize], ids[c[(k + 1) % c.len()] as usize]);
             if a != b {
-                edges.entry((a.min(b), a.max(b))).or_default().push(i as u32);
+                edges
+                    .entry((a.min(b), a.max(b)))
+                    .or_default()
+                    .push(i as u32);
             }
         }
     }
@@ -339,7 +342,11 @@ pub(super) mod tests {
         for (i, &p) in mesh.vertices.iter().enumerate() {
             for &q in &mesh.vertices[i + 1..] {
                 let flat = chart.project(p).distance(chart.project(q));
-                assert!((flat - p.distance(q)).abs() < 1e-5, "{flat} vs {}", p.distance(q));
+                assert!(
+                    (flat - p.distance(q)).abs() < 1e-5,
+                    "{flat} vs {}",
+                    p.distance(q)
+                );
             }
         }
         let area: f32 = chart.area(&mesh);
@@ -357,7 +364,10 @@ pub(super) mod tests {
         let charts = charts(&mesh);
         assert_eq!(charts.len(), 1);
         let size = charts[0].size();
-        assert!((size.max_element() - 3.0).abs() < 1e-5 && (size.min_element() - 1.0).abs() < 1e-5, "{size}");
+        assert!(
+            (size.max_element() - 3.0).abs() < 1e-5 && (size.min_element() - 1.0).abs() < 1e-5,
+            "{size}"
+        );
         assert!((charts[0].u.cross(charts[0].v) - Vec3::Z).length() < 1e-6);
     }
 }

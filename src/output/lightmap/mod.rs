@@ -257,7 +257,11 @@ impl Lightmap {
     /// exposure; empty texels black), rows top to bottom.
     pub fn radiance(&self) -> HdrImage {
         let mut image = HdrImage::new(self.atlas.width, self.atlas.height);
-        for (out, (b, kind)) in image.pixels.iter_mut().zip(self.atlas.values.iter().zip(&self.atlas.kind)) {
+        for (out, (b, kind)) in image
+            .pixels
+            .iter_mut()
+            .zip(self.atlas.values.iter().zip(&self.atlas.kind))
+        {
             if *kind != bake::Texel::Empty {
                 *out = b.map(|c| c / std::f32::consts::PI);
             }
@@ -289,14 +293,24 @@ mod tests {
     /// Two triangles sharing an edge (and its vertices), folded by 90
     /// degrees: two charts with a seam along the shared edge.
     fn fold() -> Mesh {
-        let vertices = vec![Vec3::ZERO, Vec3::X, Vec3::new(0.4, 1.0, 0.0), Vec3::new(0.7, 0.0, 1.0)];
+        let vertices = vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(0.4, 1.0, 0.0),
+            Vec3::new(0.7, 0.0, 1.0),
+        ];
         mesh_of(vertices, &[&[0, 1, 2], &[1, 0, 3]])
     }
 
     #[test]
     fn the_seam_s_two_sides_agree() {
         let mesh = fold();
-        let radiosity = [[1.0, 0.0, 2.0], [3.0, 1.0, 0.0], [0.5, 0.5, 0.5], [7.0, 7.0, 7.0]];
+        let radiosity = [
+            [1.0, 0.0, 2.0],
+            [3.0, 1.0, 0.0],
+            [0.5, 0.5, 0.5],
+            [7.0, 7.0, 7.0],
+        ];
         let lm = build(&mesh, &radiosity, Density::TexelsPerUnit(40.0)).unwrap();
         assert_eq!(lm.charts, 2);
         // The seam's two vertices are each split in two.
@@ -317,20 +331,25 @@ mod tests {
             let (s0, e0) = lm.atlas.sample(a.0.lerp(a.1, t));
             let (s1, e1) = lm.atlas.sample(b.0.lerp(b.1, t));
             assert!(!e0 && !e1);
-            let expected: [f32; 3] = std::array::from_fn(|c| radiosity[0][c] * (1.0 - t) + radiosity[1][c] * t);
+            let expected: [f32; 3] =
+                std::array::from_fn(|c| radiosity[0][c] * (1.0 - t) + radiosity[1][c] * t);
             for c in 0..3 {
                 // Both sides hold the edge's interpolation; bilinear
                 // filtering reads within a texel of it (40 per unit), where
                 // the values change by at most |grad| / 40.
                 assert!((s0[c] - s1[c]).abs() < 0.25, "t {t}: {s0:?} vs {s1:?}");
-                assert!((s0[c] - expected[c]).abs() < 0.25, "t {t}: {s0:?} vs {expected:?}");
+                assert!(
+                    (s0[c] - expected[c]).abs() < 0.25,
+                    "t {t}: {s0:?} vs {expected:?}"
+                );
             }
         }
         // Nearest-texel values along the edge agree more tightly: the
         // texels on the edge hold the edge's interpolation on both sides.
         for k in 1..20 {
             let t = k as f32 / 20.0;
-            let texel = |q: Vec2| lm.atlas.values[q.y as usize * lm.atlas.width as usize + q.x as usize];
+            let texel =
+                |q: Vec2| lm.atlas.values[q.y as usize * lm.atlas.width as usize + q.x as usize];
             let (v0, v1) = (texel(a.0.lerp(a.1, t)), texel(b.0.lerp(b.1, t)));
             for c in 0..3 {
                 assert!((v0[c] - v1[c]).abs() < 0.15, "t {t}: {v0:?} vs {v1:?}");

@@ -28,7 +28,12 @@ pub fn shelf_pack(sizes: &[(u32, u32)], width: u32) -> Packing {
     let width = padded.iter().map(|r| r.0).fold(width, u32::max);
     let mut order: Vec<usize> = (0..sizes.len()).collect();
     // Tallest first (then widest; then input order: deterministic).
-    order.sort_by_key(|&i| (std::cmp::Reverse(padded[i].1), std::cmp::Reverse(padded[i].0)));
+    order.sort_by_key(|&i| {
+        (
+            std::cmp::Reverse(padded[i].1),
+            std::cmp::Reverse(padded[i].0),
+        )
+    });
     let mut origins = vec![(0, 0); sizes.len()];
     let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
     let mut used_width = 0;
