@@ -32,15 +32,15 @@ use crate::output::tonemap::luminance;
 /// [`crate::mesh::smooth::place_cells`] rounds it).
 pub type KeptMidpoints = HashMap<(u32, [i64; 3]), Probed>;
 
-/// A gap between a gathered point and the drawn mesh there, shrunk by its
-/// noise (the point's, and that of the corners' mean, taken as noisy as
-/// the point): a Wiener factor, so a gap within the noise moves nothing.
+/// A midpoint's gap from the drawn mesh there, shrunk by its noise
+/// ([`Probed::gap_error`] over the edge's two ends): a Wiener factor, so
+/// a gap within the noise moves nothing.
 fn shrunk_gap(gap: Vec3, probed: &Probed) -> Vec3 {
     let level = luminance(gap.to_array());
     if level == 0.0 {
         return Vec3::ZERO;
     }
-    let noise2 = 1.5 * probed.noise * probed.noise;
+    let noise2 = probed.gap_error(2).powi(2);
     gap * (level * level / (level * level + noise2))
 }
 

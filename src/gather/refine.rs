@@ -50,8 +50,9 @@ pub struct DisplayRefinement {
 }
 
 impl DisplayRefinement {
-    /// The shortest edge split where the light ranges over `lo..=hi`.
-    fn min_edge(&self, lo: f32, hi: f32, floor: f32) -> f32 {
+    /// The shortest edge split where the light ranges over `lo..=hi`
+    /// (`floor`: the deep-shadow level, in the same units).
+    fn split_floor(&self, lo: f32, hi: f32, floor: f32) -> f32 {
         if hi - lo > self.steep * hi.max(floor) {
             self.steep_min_edge
         } else {
@@ -178,7 +179,7 @@ pub fn split_plan(
             let (a, b) = (point(ends[0]), point(ends[1]));
             let mid = (e.patch, place(0.5 * (a + b)));
             let (la, lb) = (levels[ends[0] as usize], levels[ends[1] as usize]);
-            let min_edge = settings.min_edge(la.min(lb), la.max(lb), floor);
+            let min_edge = settings.split_floor(la.min(lb), la.max(lb), floor);
             if a.distance(b) < min_edge || checked.midpoints.contains_key(&mid) {
                 continue;
             }
@@ -197,12 +198,13 @@ pub fn split_plan(
         let (lo, hi) = corner_range(k);
         let gradient = hi - lo > settings.suspect * corner_mean(e, &levels).max(floor);
         let centre = place(e.centre);
+        let min_edge = settings.split_floor(lo, hi, floor);
         // A centroid split keeps the element's edges, so its longest edge
         // never shrinks: the area bounds how often one is split (each
         // split a third), as the longest edge bounds a midpoint's.
         if gradient
-            && longest_edge(display, k) >= settings.min_edge(lo, hi, floor)
-            && e.area >= smallest_split_area(settings.min_edge(lo, hi, floor))
+            && longest_edge(display, k) >= min_edge
+            && e.area >= smallest_split_area(min_edge)
             && !checked.centres.contains(&centre)
             && centres.insert(centre)
         {
@@ -271,7 +273,7 @@ pub fn split_plan(
                     2,
                 ),
             };
-            let gap_error = probed.noise * (1.0 + 1.0 / corners as f32).sqrt();
+            let gap_error = probed.gap_error(corners);
             CentroidGap {
                 element,
                 gap: (seen - gouraud).abs(),

@@ -383,3 +383,11 @@ pub struct Probed {
     /// and the emitters' stratified rays are taken as exact).
     pub noise: f32,
 }
+
+impl Probed {
+    /// The standard error of this point's gap from the mean of `corners`
+    /// mesh values, those taken as noisy as the point.
+    pub fn gap_error(&self, corners: usize) -> f32 {
+        self.noise * (1.0 + 1.0 / corners as f32).sqrt()
+    }
+}
