@@ -35,6 +35,10 @@ COMMANDS = {
     "bench.json": ("cargo run --release -- bench", "src/bench, the `vkrad bench` subcommand"),
     "meshers.json": ("cargo run --release -- bench --meshers", "src/bench, the `vkrad bench` subcommand"),
     "lightmap.json": ("python3 bench/lightmap.py", "bench/lightmap.py; needs chromium and npm ci in tools/lightmap"),
+    "lightmap-blender.json": (
+        "python3 scenes/generate_scenes.py --textured /tmp/vkrad-textured && python3 bench/lightmap_blender.py "
+        "--scenes cornell,/tmp/vkrad-textured/cornell-checker.obj,rfield",
+        "bench/lightmap_blender.py; needs apt-get install blender python3-numpy"),
     "many-lights.json": ("cd bench/pathtracer && python3 many_lights.py", "bench/pathtracer/many_lights.py"),
     "race-cornell.json": (
         "cd bench/pathtracer && python3 compare.py && python3 compare.py --skip-race --tag=-final "
@@ -681,6 +685,39 @@ def lightmap_section(linked):
     return lines + [""]
 
 
+def lightmap_blender_section(linked):
+    doc = load("lightmap-blender.json")
+    if not doc:
+        return []
+    cmd, src = COMMANDS["lightmap-blender.json"]
+    lines = ["## Lightmaps in Blender", ""]
+    lines += header("lightmap-blender.json", doc,
+                    f"`vkrad SCENE --shade mesh --export x.glb --lightmap auto`, the .glb imported by "
+                    f"{doc.get('blender') or 'Blender'}'s own glTF importer and drawn by Cycles (one-pixel box "
+                    "filter, Standard view transform), against vkrad's `--shade mesh` image of the same lit mesh. "
+                    "Relative RMS in linear light and the largest channel's difference in 8-bit levels, over the "
+                    "surfaces Blender covers fully away from clamped pixels, and over the interior of those "
+                    "(one shading normal in each 3x3 neighbourhood: no edge, crease or seam).", cmd, src)
+    lines.append("")
+    rows = []
+    for sc in dicts(doc.get("scenes")):
+        at = sc.get("atlas") or {}
+        c = sc.get("blender_vs_mesh") or {}
+        su, it = c.get("surfaces") or {}, c.get("interior") or {}
+        imp = sc.get("imported") or {}
+        rows.append([os.path.splitext(os.path.basename(str(sc.get("scene"))))[0], count(sc.get("display_elements")),
+                     f"{at.get('width')}x{at.get('height')}" if at else None, count(su.get("pixels")),
+                     pct(su.get("rel_rmse")), num(su.get("mean_levels")) and f"{su['mean_levels']:.2f}",
+                     su.get("p99_levels"), count(it.get("pixels")), pct(it.get("rel_rmse")),
+                     num(it.get("mean_levels")) and f"{it['mean_levels']:.2f}", it.get("p99_levels"),
+                     ", ".join(imp.get("uv_layers") or []), secs(sc.get("blender_s"))])
+    lines += table(["scene", "display elements", "atlas", "surface pixels", "rel RMSE", "mean levels", "p99 levels",
+                    "interior pixels", "rel RMSE", "mean levels", "p99 levels", "UV maps imported",
+                    "Blender s"], rows)
+    lines += [""] + charts(["lightmap-blender-cornell.png"], linked)
+    return lines + [""]
+
+
 def many_lights_section(linked):
     doc = load("many-lights.json")
     if not doc:
@@ -811,6 +848,7 @@ def main():
     body += races(linked)
     body += views_section(linked)
     body += lightmap_section(linked)
+    body += lightmap_blender_section(linked)
     body += walkthrough_section(linked)
     body += memory_section("memory.json", "## Memory against the estimate", linked)
     body += memory_section("memory-4gb.json", "## Interiors under a 4 GiB address-space cap", linked)
@@ -826,7 +864,7 @@ def main():
         body += ["The H200 runs' scripts and logs are in `bench/h200/` (`gpu_run*.sh`, `run*-log.txt`).", ""]
     handled = {"gallery.json", "memory.json", "scenes.json", "gather_cost.json", "scaling.json", "bench.json",
                "meshers.json", "h200/memory-h200.json", "many-lights.json",
-               "memory-4gb.json", "lightmap.json"}
+               "memory-4gb.json", "lightmap.json", "lightmap-blender.json"}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "h200", "race-*.json"))}
     handled |= {os.path.relpath(p, HERE) for p in glob.glob(os.path.join(HERE, "views-*.json"))}
