@@ -23,12 +23,14 @@ use crate::trace::{cat, span_since};
 
 mod memory;
 mod pipeline;
+mod quality;
 mod report;
 mod tuning;
 pub mod view;
 mod views;
 pub use memory::{peak_resident_bytes, run_estimate, RunEstimate, StageLog};
 pub use pipeline::run_scene;
+pub use quality::Quality;
 pub use report::{write_report, GatherFacts, Report};
 pub use tuning::{tune, TUNING};
 pub use views::load_views;
@@ -77,6 +79,9 @@ pub struct Job {
     /// where the value gathered at their centroid is off the Gouraud one
     /// (penumbrae, skinny elements between shadow lines).
     pub display_refinements: usize,
+    /// `--quality`: the level whose defaults the display mesh's density,
+    /// its refinement and the gather's rays took ([`Quality::apply`]).
+    pub quality: Quality,
     /// Where the image is gathered: at its pixels or at a display mesh's
     /// vertices (`Shade`).
     pub shade: Shade,
@@ -136,6 +141,7 @@ impl Default for Job {
             display_edge: None,
             display_mesher: Some(Mesher::Discontinuity { subdivide: true }),
             display_refinements: crate::mesh::display::DISPLAY_REFINEMENTS,
+            quality: Quality::Normal,
             shade: Shade::Auto,
             gather_unseen: false,
             adaptive: 0,
@@ -199,6 +205,7 @@ impl Job {
     pub(crate) fn display_request(&self) -> DisplayRequest {
         DisplayRequest {
             edge: self.display_edge,
+            edge_share: self.quality.display_edge_share(),
             mesher: self.display_mesher,
             check: self.check_mesh,
         }

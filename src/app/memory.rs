@@ -309,7 +309,7 @@ impl RunEstimate {
         let largest = self.largest();
         let hint = match largest.stage {
             "display mesh" => {
-                "use a larger --tune display_edge, --tune display_mesh uniform, or --tune final_gather=false"
+                "use --quality draft (the display mesh at the solve's element size), a larger --tune display_edge, --tune display_mesh uniform, or --tune final_gather=false"
             }
             "mesh" => "use a larger --max-edge (elements grow as 1 / max-edge^2)",
             "gather" => "use a larger --max-edge (the gather holds about 6 KB a solved element), or --tune final_gather=false",
@@ -404,6 +404,7 @@ mod tests {
             },
             gather: Some(GatherAt::Vertices(DisplayRequest {
                 edge: None,
+                edge_share: crate::mesh::display::DISPLAY_EDGE_SHARE,
                 mesher: display,
                 check: false,
             })),

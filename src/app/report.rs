@@ -145,6 +145,7 @@ impl Report {
             "device": { "name": self.device, "kind": self.device_kind },
             "settings": {
                 "scene": job.scene,
+                "quality": job.quality.name(),
                 "max_edge": self.max_edge,
                 "hemicube_res": job.solve.hemicube_res,
                 "converge": job.solve.converge,

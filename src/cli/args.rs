@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 
-use crate::app::CameraOverride;
+use crate::app::{CameraOverride, Quality};
 use crate::gpu::capture::CaptureTarget;
 use crate::gpu::DeviceOptions;
 use crate::output::lightmap::Density;
@@ -99,6 +99,24 @@ pub(crate) enum ShadeArg {
     Wireframe,
 }
 
+/// `--quality`'s levels (`app::Quality`).
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub(crate) enum QualityArg {
+    Draft,
+    Normal,
+    Fine,
+}
+
+impl QualityArg {
+    pub(crate) fn quality(self) -> Quality {
+        match self {
+            QualityArg::Draft => Quality::Draft,
+            QualityArg::Normal => Quality::Normal,
+            QualityArg::Fine => Quality::Fine,
+        }
+    }
+}
+
 #[derive(Clone, Copy, clap::ValueEnum)]
 pub(crate) enum FfArg {
     Hemicube,
@@ -172,6 +190,15 @@ pub(crate) struct RenderArgs {
     /// exported or the scene has textures [default: auto].
     #[arg(long, value_enum, value_name = "WHERE")]
     pub(crate) shade: Option<ShadeArg>,
+    /// How fine the lit mesh is and how many rays the final gather sends.
+    /// draft: a quick look (the display mesh at the solve's element size,
+    /// two refinement passes, a quarter of the hemisphere rays); normal: the
+    /// lit mesh within about 2% of a path tracer from any camera
+    /// (bench/RESULTS.md); fine: about twice the display elements and
+    /// four times the hemisphere rays. A --tune key given with it still
+    /// changes its one setting [default: normal].
+    #[arg(long, value_enum, value_name = "LEVEL")]
+    pub(crate) quality: Option<QualityArg>,
     /// Write settings, results and per-stage timings as JSON.
     #[arg(long, value_name = "FILE.json")]
     pub(crate) report: Option<PathBuf>,

@@ -115,6 +115,9 @@ pub(crate) fn job_from(args: &RenderArgs) -> Result<Job> {
         job.size = size;
     }
     job.exposure = args.exposure;
+    if let Some(quality) = args.quality {
+        quality.quality().apply(&mut job);
+    }
     for assignment in &args.tune {
         tune(&mut job, assignment)?;
     }

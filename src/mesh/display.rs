@@ -15,11 +15,18 @@ use crate::scene::Scene;
 /// Default refinement passes of a discontinuity display mesh.
 pub const DISPLAY_REFINEMENTS: usize = 4;
 
+/// The display mesh's default longest edge, as a share of the scene's
+/// default element edge (the solve's): finer than a default solve.
+pub const DISPLAY_EDGE_SHARE: f32 = 0.5;
+
 /// What the display mesh is asked to be.
 #[derive(Debug, Clone, Copy)]
 pub struct DisplayRequest {
-    /// Its maximum element edge; `None`: half the scene's default edge.
+    /// Its maximum element edge; `None`: `edge_share` of the scene's
+    /// default edge.
     pub edge: Option<f32>,
+    /// [`DISPLAY_EDGE_SHARE`] unless `--quality` says otherwise.
+    pub edge_share: f32,
     /// Its mesher; `None`: the solve's.
     pub mesher: Option<Mesher>,
     /// Verify it (`check_mesh`).
@@ -31,12 +38,11 @@ impl DisplayRequest {
     /// `solved`; `None` when the solve's own mesh is shown (a coarser mesh
     /// for the display is never built).
     pub fn choice(&self, scene: &Scene, solved: &MeshSettings) -> Option<(Mesher, f32)> {
-        // Half the scene's default edge: finer than a default solve, and
-        // no finer than a solve the user made finer (its cost grows with
+        // No finer than a solve the user made finer (its cost grows with
         // the display vertices).
         let edge = self
             .edge
-            .unwrap_or(0.5 * mesh::default_max_edge(scene))
+            .unwrap_or(self.edge_share * mesh::default_max_edge(scene))
             .min(solved.max_edge);
         let mesher = self.mesher.unwrap_or(solved.mesher);
         (mesher != solved.mesher || edge < solved.max_edge).then_some((mesher, edge))

@@ -212,6 +212,50 @@ fn renders_and_exports_a_small_scene() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--quality` orders the lit mesh: draft fewer display elements than
+/// normal (at the solve's element size, two refinement passes), fine more;
+/// the report names the level.
+#[test]
+fn quality_levels_order_the_lit_mesh() {
+    let dir = temp_dir("quality");
+    let mut elements = Vec::new();
+    for level in ["draft", "normal", "fine"] {
+        let report = format!("{level}.json");
+        let out = vkrad(
+            &[
+                "simple",
+                "-o",
+                "simple.png",
+                "--export",
+                "simple.ply",
+                "--size",
+                "32x32",
+                "--tune",
+                "hemicube_res=32",
+                "--quality",
+                level,
+                "--report",
+                &report,
+            ],
+            &dir,
+        );
+        assert!(out.status.success(), "{level}:\n{}", stderr(&out));
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join(&report)).unwrap()).unwrap();
+        assert_eq!(r["settings"]["quality"], level);
+        let passes = r["display_mesh"]["refinement_passes"].as_array().unwrap();
+        if level == "draft" {
+            assert!(passes.len() <= 2, "draft refined {} times", passes.len());
+        }
+        elements.push(r["display_mesh"]["elements"].as_u64().unwrap());
+    }
+    assert!(
+        elements[0] < elements[1] && elements[1] < elements[2],
+        "display elements draft, normal, fine: {elements:?}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// Images and meshes come out with the permissions the umask gives (issue
 /// 19, item 6: they were rw------- whatever the umask, the atomic write's
 /// temporary file's), and a file they replace keeps its own.
