@@ -189,6 +189,18 @@ pub(super) fn cells_around(p: Vec3, cell: f32) -> impl Iterator<Item = [i64; 3]>
     (0..27).map(move |k: i64| [x + k / 9 - 1, y + (k / 3) % 3 - 1, z + k % 3 - 1])
 }
 
+/// Those of [`cells_around`] that a ball of radius `r` around `p` reaches,
+/// in the same order: the others hold nothing within `r` of `p`. (The
+/// radius is padded a little, so that rounding never leaves out a cell
+/// that holds a point at distance `r`.)
+pub(super) fn cells_within(p: Vec3, r: f32, cell: f32) -> impl Iterator<Item = [i64; 3]> {
+    let centre = cell_of(p, cell);
+    let pad = 1e-4 * r + 1e-6 * p.abs().max_element();
+    let (lo, hi) = (cell_of(p - (r + pad), cell), cell_of(p + (r + pad), cell));
+    let range = move |a: usize| (lo[a].max(centre[a] - 1))..=(hi[a].min(centre[a] + 1));
+    range(0).flat_map(move |x| range(1).flat_map(move |y| range(2).map(move |z| [x, y, z])))
+}
+
 /// Sums that give a point's harmonic mean distance to the sources it
 /// gathers from, weighted by their (visible) form factors.
 #[derive(Debug, Clone, Copy, Default)]
@@ -253,6 +265,37 @@ pub(super) fn centre_records(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `cells_within` is `cells_around` less cells the ball cannot reach:
+    /// in the same order, and holding every point of the 27 cells within
+    /// the radius (points on the ball's surface included).
+    #[test]
+    fn cells_within_keeps_every_cell_the_ball_reaches_in_order() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        for _ in 0..2000 {
+            let cell = 0.1 + 2.0 * unit();
+            let p = Vec3::new(unit(), unit(), unit()) * 200.0 - 100.0;
+            let r = cell * 2.0 * unit();
+            let around: Vec<[i64; 3]> = cells_around(p, cell).collect();
+            let within: Vec<[i64; 3]> = cells_within(p, r, cell).collect();
+            let mut rest = around.iter();
+            assert!(within.iter().all(|c| rest.any(|a| a == c)), "order");
+            for _ in 0..20 {
+                let d = Vec3::new(unit(), unit(), unit()) * 2.0 - 1.0;
+                let q = p + d.normalize_or_zero() * r * unit().max(0.999);
+                let c = cell_of(q, cell);
+                if around.contains(&c) {
+                    assert!(within.contains(&c), "{q} at {r} from {p}, cell {cell}");
+                }
+            }
+        }
+    }
 
     /// Four records around the origin on the plane y = 0, one element
     /// (width 2) apart, each reaching `reach`, with the values `value` gives.

@@ -27,7 +27,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
-use super::reflected_cache::{cell_of, cells_around};
+use super::reflected_cache::{cell_of, cells_within};
 
 /// The share of the hemisphere rays every display vertex sends first.
 pub(super) const FIRST_SHARE: usize = 4;
@@ -110,7 +110,9 @@ impl Sharing {
         let Some(cell) = self.cell.filter(|_| radius(s).is_finite()) else {
             return;
         };
-        for key in cells_around(s.point, cell) {
+        // A neighbour lies within the nearer reach's share, at most `s`'s
+        // radius: only the cells that reach look.
+        for key in cells_within(s.point, radius(s), cell) {
             for &j in self.grid.get(&(s.surface, key)).into_iter().flatten() {
                 let o = &samples[j as usize];
                 if j as usize == i {
