@@ -197,6 +197,13 @@ def header(doc_rel, doc, what, command=None, source=None):
     return lines
 
 
+def opening(doc_rel, doc, title, what):
+    """A section's heading and the header of its JSON file, with the
+    command that writes it (`COMMANDS`)."""
+    cmd, src = COMMANDS[doc_rel]
+    return [f"## {title}", ""] + header(doc_rel, doc, what, cmd, src)
+
+
 def charts(names, linked):
     out = []
     for n in names:
@@ -360,14 +367,12 @@ def gallery(linked):
     doc = load("gallery.json")
     if not doc:
         return [], []
-    cmd, src = COMMANDS["gallery.json"]
-    lines = ["## Gallery", ""]
-    lines += header("gallery.json", doc,
+    lines = opening("gallery.json", doc, "Gallery",
                     f"`vkrad SCENE --size {doc.get('size', '256x256')}` at its defaults, each run timed as the "
                     "whole command (start-up and shader compilation included) on lavapipe, 2 cores; error is the "
                     "relative RMSE over the lit pixels against a Mitsuba 3 path-traced reference with the same "
                     "camera (`bench/pathtracer/`). The path tracer's time to the same error is read off the race "
-                    "of the same scene (`race-SCENE.json`, below) by its interpolation.", cmd, src)
+                    "of the same scene (`race-SCENE.json`, below) by its interpolation.")
     lines.append("")
     rows, readme, extra_any = [], [], False
     for r in dicts(doc.get("runs")):
@@ -578,14 +583,12 @@ def scenes_section(linked):
     doc = load("scenes.json")
     if not doc:
         return []
-    cmd, src = COMMANDS["scenes.json"]
-    lines = ["## Time, gather cost and memory against polygons", ""]
-    lines += header("scenes.json", doc,
+    lines = opening("scenes.json", doc, "Time, gather cost and memory against polygons",
                     "The runs of `bench/memory.py --large` against input polygons, with a power law fitted to "
                     "each generated family (`scenes/generate_scenes.py --scaling DIR`: fields of letters R, and "
                     "curved surfaces in the Cornell room). A traced point is an element centre the final gather "
                     "traced from, or a pixel block's reflected-light point; the cost a point is the gather's CPU "
-                    "time (wall x threads) over them.", cmd, src)
+                    "time (wall x threads) over them.")
     lines.append("")
     rows = [[r.get("scene"), count(r.get("patches")), secs(r.get("wall_s")), secs(r.get("gather_s")),
              count(r.get("gather_points")), ms(r.get("gather_ms_per_point")), mib(r.get("peak_bytes"))]
@@ -660,14 +663,12 @@ def lightmap_section(linked):
     doc = load("lightmap.json")
     if not doc:
         return []
-    cmd, src = COMMANDS["lightmap.json"]
-    lines = ["## Lightmaps in a browser", ""]
-    lines += header("lightmap.json", doc,
+    lines = opening("lightmap.json", doc, "Lightmaps in a browser",
                     "`vkrad SCENE --shade mesh --export x.glb --lightmap D` at several densities, the .glb drawn by "
                     "three.js in headless Chromium (WebGL on SwiftShader, vkrad's 16 sample positions a pixel). "
                     "Errors are relative RMS in linear light over the surfaces: the lightmap against the same "
                     "mesh's vertex colours drawn by the same browser (what the atlas loses), and the browser's "
-                    "image against vkrad's `--shade pixels` image.", cmd, src)
+                    "image against vkrad's `--shade pixels` image.")
     lines.append("")
     rows = []
     for sc in dicts(doc.get("scenes")):
@@ -689,15 +690,13 @@ def lightmap_blender_section(linked):
     doc = load("lightmap-blender.json")
     if not doc:
         return []
-    cmd, src = COMMANDS["lightmap-blender.json"]
-    lines = ["## Lightmaps in Blender", ""]
-    lines += header("lightmap-blender.json", doc,
+    lines = opening("lightmap-blender.json", doc, "Lightmaps in Blender",
                     f"`vkrad SCENE --shade mesh --export x.glb --lightmap auto`, the .glb imported by "
                     f"{doc.get('blender') or 'Blender'}'s own glTF importer and drawn by Cycles (one-pixel box "
                     "filter, Standard view transform), against vkrad's `--shade mesh` image of the same lit mesh. "
                     "Relative RMS in linear light and the largest channel's difference in 8-bit levels, over the "
                     "surfaces Blender covers fully away from clamped pixels, and over the interior of those "
-                    "(one shading normal in each 3x3 neighbourhood: no edge, crease or seam).", cmd, src)
+                    "(one shading normal in each 3x3 neighbourhood: no edge, crease or seam).")
     lines.append("")
     rows = []
     for sc in dicts(doc.get("scenes")):
@@ -722,9 +721,7 @@ def many_lights_section(linked):
     doc = load("many-lights.json")
     if not doc:
         return []
-    cmd, src = COMMANDS["many-lights.json"]
-    lines = ["## Many lights", ""]
-    lines += header("many-lights.json", doc,
+    lines = opening("many-lights.json", doc, "Many lights",
                     "One open-plan office lit by N ceiling panels of equal total power "
                     "(`scenes/generate_scenes.py --offices`), at vkrad's defaults (the 16 lights that give a "
                     "point most get their own shadow rays, the rest share one estimate) and with "
@@ -733,7 +730,7 @@ def many_lights_section(linked):
                     + ("single runs side by side, the two variants one after the other; with one light they do "
                        "the same work, so their difference there is the runs' own spread"
                        if doc.get("repeats") == 1 else f"median of {doc.get('repeats')} runs each, the variants "
-                       "alternating") + "; errors less the reference's own noise.", cmd, src)
+                       "alternating") + "; errors less the reference's own noise.")
     lines.append("")
     rows = []
     for r in dicts(doc.get("rows")):
@@ -789,12 +786,10 @@ def meshers_section(linked):
     doc = load("meshers.json")
     if not doc:
         return []
-    cmd, src = COMMANDS["meshers.json"]
-    lines = ["## Meshers: error against elements and time", ""]
-    lines += header("meshers.json", doc,
+    lines = opening("meshers.json", doc, "Meshers: error against elements and time",
                     f"`vkrad bench --meshers` on `{doc.get('scene', 'simple')}`: "
                     + (doc.get("method") or "uniform against discontinuity meshing")
-                    + (f". Reference: {doc['reference']}" if doc.get("reference") else "") + ".", cmd, src)
+                    + (f". Reference: {doc['reference']}" if doc.get("reference") else "") + ".")
     lines.append("")
     rows = [[p.get("mesher"), p.get("setting"), count(p.get("solved_elements")), count(p.get("elements")),
              secs(p.get("wall_seconds")), pct(p.get("error")), pct(p.get("estimated_error"))]
