@@ -105,12 +105,12 @@ def bench_scene(a, scene, size):
     clamped = dilate((vk8 == 255).any(axis=2) | (bl8 == 255).any(axis=2))
     masks = {"surfaces": (alpha == 255) & ~clamped}
     masks["interior"] = masks["surfaces"] & one_normal(read_png(job["normal"]), alpha == 255)
-    d = np.abs(bl8.astype(int) - vk8.astype(int)).max(axis=2)
+    absdiff = np.abs(bl8.astype(int) - vk8.astype(int))
+    d = absdiff.max(axis=2)
     compared = {}
     for k, m in masks.items():
         compared[k] = {"pixels": int(m.sum()), "rel_rmse": rel_rmse(srgb8_to_linear(bl8), srgb8_to_linear(vk8), m),
                        "mean_levels": float(d[m].mean()), **level_stats(bl8, vk8, m)}
-    mask = masks["surfaces"]
     out = {
         "scene": scene, "size": [w, h], "camera": cam,
         "command": shlex.join(["vkrad", *cmd[1:]]), "vkrad_s": vkrad_s,
@@ -123,7 +123,7 @@ def bench_scene(a, scene, size):
     for k, c in compared.items():
         log(f"{name}: Blender against vkrad's mesh image, {k}: {100 * c['rel_rmse']:.2f}% rel RMSE, "
             f"{c['mean_levels']:.2f} levels mean, p99 {c['p99_levels']:.0f}, over {c['pixels']} pixels")
-    diff = np.clip(np.abs(bl8.astype(int) - vk8.astype(int)) * 8, 0, 255).astype(np.uint8)
+    diff = np.clip(absdiff * 8, 0, 255).astype(np.uint8)
     diff[alpha < 255] = 0
     return relative(out), np.concatenate([vk8, bl8, diff], axis=1)
 

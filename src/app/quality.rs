@@ -4,6 +4,7 @@
 //! `--tune` key given with it still changes any one of them.
 
 use super::Job;
+use crate::gather::VertexGather;
 use crate::mesh::display::{DISPLAY_EDGE_SHARE, DISPLAY_REFINEMENTS};
 
 /// How fine the lit mesh is and how many rays the final gather sends.
@@ -61,11 +62,10 @@ impl Quality {
 
     /// Sets `job`'s defaults to this level's (before any `--tune`).
     pub fn apply(self, job: &mut Job) {
-        let normal = Job::default();
         job.quality = self;
         job.display_refinements = self.display_refinements();
-        if let (Some(gather), Some(defaults)) = (&mut job.final_gather, normal.final_gather) {
-            gather.hemisphere_rays = self.hemisphere_rays(defaults.hemisphere_rays);
+        if let Some(gather) = &mut job.final_gather {
+            gather.hemisphere_rays = self.hemisphere_rays(VertexGather::default().hemisphere_rays);
         }
     }
 }
